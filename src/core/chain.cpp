@@ -1,0 +1,107 @@
+#include "core/chain.hpp"
+
+#include <cmath>
+
+#include "core/so3.hpp"
+
+namespace ikchain {
+
+ChainBuilder& ChainBuilder::add_joint(const JointDesc& joint) {
+  joints_.push_back(joint);
+  return *this;
+}
+
+ChainBuilder& ChainBuilder::set_tip_offset(const glm::dvec3& tip_offset) {
+  tip_offset_ = tip_offset;
+  return *this;
+}
+
+void ChainBuilder::clear() {
+  joints_.clear();
+  tip_offset_ = glm::dvec3(0.0);
+}
+
+bool Chain::has_limits(int i) const {
+  const JointLimits& l = limits_[i];
+  return joint_type(i) == JointType::kHinge ? l.has_hinge_limit
+                                            : (l.has_cone_limit || l.has_twist_limit);
+}
+
+Message ChainBuilder::build(Chain& out) const {
+  out = Chain();
+  const int n = static_cast<int>(joints_.size());
+  if (n == 0) return Message::format("chain has 0 joints: add at least one joint");
+  if (!so3::finite(tip_offset_)) return Message::format("tip_offset is not finite");
+
+  Chain c;
+  c.joint_count_ = n;
+  c.types_.resize(n);
+  c.dof_offsets_.resize(n);
+  c.offset_translations_.resize(n);
+  c.rest_rotations_.resize(n);
+  c.hinge_axes_.resize(n);
+  c.limits_.resize(n);
+  c.bone_lengths_.resize(n);
+
+  int dofs = 0;
+  for (int i = 0; i < n; ++i) {
+    const JointDesc& j = joints_[i];
+    if (!so3::finite(j.offset_translation))
+      return Message::format("joint %d: offset_translation is not finite", i);
+    if (!so3::finite(j.rest_rotation) || glm::length(j.rest_rotation) < 1e-9)
+      return Message::format("joint %d: rest_rotation must be a finite non-zero quaternion", i);
+    JointLimits l = j.limits;
+    glm::dvec3 axis = j.hinge_axis;
+    if (j.type == JointType::kHinge) {
+      const double len = glm::length(axis);
+      if (!std::isfinite(len) || len < 1e-9)
+        return Message::format("joint %d: hinge_axis must be a finite non-zero vector", i);
+      axis /= len;
+      if (l.has_hinge_limit) {
+        if (!std::isfinite(l.hinge_min) || !std::isfinite(l.hinge_max))
+          return Message::format("joint %d: hinge_min/hinge_max must be finite", i);
+        if (l.hinge_min > l.hinge_max)
+          return Message::format("joint %d: hinge_min (%g) > hinge_max (%g)", i, l.hinge_min,
+                                 l.hinge_max);
+      }
+    } else if (j.type == JointType::kBall) {
+      const double len = glm::length(l.twist_axis);
+      if (!std::isfinite(len) || len < 1e-9)
+        return Message::format("joint %d: limits.twist_axis must be a finite non-zero vector", i);
+      l.twist_axis /= len;
+      if (l.has_cone_limit && !(l.cone_angle >= 0.0 && l.cone_angle <= so3::kPi))
+        return Message::format("joint %d: cone_angle must be in [0, pi], got %g", i, l.cone_angle);
+      if (l.has_twist_limit) {
+        if (!(l.twist_min >= -so3::kPi && l.twist_max <= so3::kPi))
+          return Message::format("joint %d: twist_min/twist_max must be within [-pi, pi]", i);
+        if (l.twist_min > l.twist_max)
+          return Message::format("joint %d: twist_min (%g) > twist_max (%g)", i, l.twist_min,
+                                 l.twist_max);
+      }
+    } else {
+      return Message::format("joint %d: unknown joint type", i);
+    }
+    c.types_[i] = static_cast<uint8_t>(j.type);
+    c.dof_offsets_[i] = dofs;
+    dofs += j.type == JointType::kBall ? 3 : 1;
+    c.offset_translations_[i] = j.offset_translation;
+    c.rest_rotations_[i] = glm::normalize(j.rest_rotation);
+    c.hinge_axes_[i] = axis;
+    c.limits_[i] = l;
+  }
+  c.dof_count_ = dofs;
+  c.tip_offset_ = tip_offset_;
+  double total = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const glm::dvec3& next = (i + 1 < n) ? c.offset_translations_[i + 1] : tip_offset_;
+    c.bone_lengths_[i] = glm::length(next);
+    total += c.bone_lengths_[i];
+  }
+  if (!(total > 1e-9)) return Message::format("zero-length chain: every bone has length 0");
+  c.total_length_ = total;
+  for (int i = 0; i < n; ++i) c.any_limits_ = c.any_limits_ || c.has_limits(i);
+  out = std::move(c);
+  return Message();
+}
+
+}  // namespace ikchain

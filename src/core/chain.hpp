@@ -1,0 +1,117 @@
+// The kinematic chain: built once by ChainBuilder, then immutable and read by every solve.
+//
+// Frames. The chain lives in its own "base" space (for Godot: the root bone's parent, in skeleton
+// space). Joint i has a frame whose origin o_i and orientation Q_i are
+//   o_i = o_{i-1} + Q_{i-1} * offset_translation[i]          (o_{-1} = 0, Q_{-1} = identity)
+//   Q_i = Q_{i-1} * rest_rotation[i] * R_i(params)
+// with R_i = exp(r) for a ball joint (r: rotation vector, 3 params, radians) and
+// R_i = angle_axis(theta, hinge_axis) for a hinge (1 param, radians). The tip (end effector) is
+//   tip = o_{n-1} + Q_{n-1} * tip_offset.
+// params = 0 is the rest pose. Bone i spans o_i -> o_{i+1} (or -> tip for the last joint).
+//
+// Effectors (where goals attach) are numbered 1..n: effector k < n is the origin o_k of joint k
+// (e.g. the elbow of a shoulder-elbow-wrist chain), effector n is the tip; effector k's orientation
+// is Q_{k-1}, the frame of the bone that ends there. Only joints 0..k-1 move effector k.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include "core/message.hpp"
+
+namespace ikchain {
+
+enum class JointType : uint8_t {
+  kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)
+  kHinge = 1,  // 1 rotational DOF about hinge_axis, param: angle (radians)
+};
+
+// Limits are expressed in joint space, relative to the joint's rest orientation.
+struct JointLimits {
+  // Hinge: angle range in radians. Ignored for ball joints.
+  bool has_hinge_limit = false;
+  double hinge_min = -3.14159265358979323846;
+  double hinge_max = 3.14159265358979323846;
+  // Ball: swing of twist_axis away from its rest direction is at most cone_angle (radians, [0, pi]).
+  bool has_cone_limit = false;
+  double cone_angle = 3.14159265358979323846;
+  // Ball: rotation about twist_axis in [twist_min, twist_max] (radians, within [-pi, pi]).
+  bool has_twist_limit = false;
+  double twist_min = -3.14159265358979323846;
+  double twist_max = 3.14159265358979323846;
+  // Ball: the bone's own axis in joint space (Godot bones point along +Y). Unit length after build.
+  glm::dvec3 twist_axis{0.0, 1.0, 0.0};
+};
+
+struct JointDesc {
+  JointType type = JointType::kBall;
+  glm::dvec3 offset_translation{0.0};        // from the parent joint's frame (or base), chain units (m)
+  glm::dquat rest_rotation{1.0, 0.0, 0.0, 0.0};  // from the parent frame, applied before the joint's motion
+  glm::dvec3 hinge_axis{0.0, 0.0, 1.0};      // hinge only: axis in joint space (after rest_rotation)
+  JointLimits limits;
+};
+
+class Chain;
+
+class ChainBuilder {
+ public:
+  ChainBuilder& add_joint(const JointDesc& joint);
+  // Offset of the end effector from the last joint, in the last joint's frame (m).
+  ChainBuilder& set_tip_offset(const glm::dvec3& tip_offset);
+  void clear();
+
+  // Validates every field and fills `out`. On failure `out` is left invalid and the returned
+  // message names the joint and field ("joint 2: hinge_min (1.5) > hinge_max (0.5)").
+  Message build(Chain& out) const;
+
+ private:
+  std::vector<JointDesc> joints_;
+  glm::dvec3 tip_offset_{0.0};
+};
+
+// Immutable after build: flat arrays, one entry per joint (or per DOF where named so).
+class Chain {
+ public:
+  bool valid() const { return joint_count_ > 0; }
+  int joint_count() const { return joint_count_; }
+  int dof_count() const { return dof_count_; }
+  int effector_count() const { return joint_count_; }  // effectors 1..n
+
+  JointType joint_type(int i) const { return static_cast<JointType>(types_[i]); }
+  int dof_offset(int i) const { return dof_offsets_[i]; }  // first param index of joint i
+  int dof_count_of(int i) const { return joint_type(i) == JointType::kBall ? 3 : 1; }
+  const glm::dvec3& offset_translation(int i) const { return offset_translations_[i]; }
+  const glm::dquat& rest_rotation(int i) const { return rest_rotations_[i]; }
+  const glm::dvec3& hinge_axis(int i) const { return hinge_axes_[i]; }
+  const JointLimits& limits(int i) const { return limits_[i]; }
+  bool has_limits(int i) const;
+  bool any_limits() const { return any_limits_; }
+  const glm::dvec3& tip_offset() const { return tip_offset_; }
+
+  // Length of bone i (o_i -> o_{i+1}, or o_{n-1} -> tip), independent of the pose (m).
+  double bone_length(int i) const { return bone_lengths_[i]; }
+  const std::vector<double>& bone_lengths() const { return bone_lengths_; }
+  // Sum of bone lengths: the farthest the tip can be from the root joint's origin o_0.
+  double total_length() const { return total_length_; }
+  // o_0: fixed by the base, independent of the pose.
+  const glm::dvec3& root_in_base() const { return offset_translations_[0]; }
+
+ private:
+  friend class ChainBuilder;
+  int joint_count_ = 0;
+  int dof_count_ = 0;
+  bool any_limits_ = false;
+  std::vector<uint8_t> types_;
+  std::vector<int> dof_offsets_;
+  std::vector<glm::dvec3> offset_translations_;
+  std::vector<glm::dquat> rest_rotations_;
+  std::vector<glm::dvec3> hinge_axes_;
+  std::vector<JointLimits> limits_;
+  std::vector<double> bone_lengths_;
+  glm::dvec3 tip_offset_{0.0};
+  double total_length_ = 0.0;
+};
+
+}  // namespace ikchain

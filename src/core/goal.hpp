@@ -1,0 +1,57 @@
+// What a solve tries to achieve. All goals are in the chain's base space.
+//
+// Residuals (what the solvers drive to zero), 3 rows per goal, e = desired - current:
+//   kPosition:    target_position - effector position                      (m)
+//   kOrientation: log(target_orientation * conj(effector orientation))      (rad, world rotation vector)
+//   kAim:         rotation vector turning the effector's aim_axis (its own frame) onto
+//                 aim_direction, angle in [0, pi]                           (rad)
+// The objective is 0.5 * sum_g weight_g * |e_g|^2.
+#pragma once
+#include <cstdint>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+namespace ikchain {
+
+enum class GoalKind : uint8_t { kPosition = 0, kOrientation = 1, kAim = 2 };
+
+struct Goal {
+  GoalKind kind = GoalKind::kPosition;
+  // Which effector: 1..joint_count, joint_count = the tip (see chain.hpp). 0 means "the tip".
+  int effector = 0;
+  double weight = 1.0;  // > 0, relative importance (dimensionless)
+  glm::dvec3 target_position{0.0};                   // kPosition (m)
+  glm::dquat target_orientation{1.0, 0.0, 0.0, 0.0};  // kOrientation (unit quaternion)
+  glm::dvec3 aim_axis{0.0, 1.0, 0.0};                 // kAim: axis in the effector's frame
+  glm::dvec3 aim_direction{0.0, 1.0, 0.0};            // kAim: desired world direction of aim_axis
+
+  static Goal position(const glm::dvec3& p, int effector = 0, double weight = 1.0) {
+    Goal g;
+    g.kind = GoalKind::kPosition;
+    g.target_position = p;
+    g.effector = effector;
+    g.weight = weight;
+    return g;
+  }
+  static Goal orientation(const glm::dquat& q, int effector = 0, double weight = 1.0) {
+    Goal g;
+    g.kind = GoalKind::kOrientation;
+    g.target_orientation = q;
+    g.effector = effector;
+    g.weight = weight;
+    return g;
+  }
+  static Goal aim(const glm::dvec3& axis_local, const glm::dvec3& direction, int effector = 0,
+                  double weight = 1.0) {
+    Goal g;
+    g.kind = GoalKind::kAim;
+    g.aim_axis = axis_local;
+    g.aim_direction = direction;
+    g.effector = effector;
+    g.weight = weight;
+    return g;
+  }
+};
+
+}  // namespace ikchain

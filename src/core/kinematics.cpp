@@ -1,0 +1,252 @@
+#include "core/kinematics.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/so3.hpp"
+
+namespace ikchain {
+
+glm::dquat joint_motion(const Chain& chain, int joint, const double* params) {
+  const double* p = params + chain.dof_offset(joint);
+  if (chain.joint_type(joint) == JointType::kHinge)
+    return glm::angleAxis(p[0], chain.hinge_axis(joint));
+  return so3::exp(glm::dvec3(p[0], p[1], p[2]));
+}
+
+void forward_kinematics(const Chain& chain, const double* params, Workspace& ws) {
+  const int n = chain.joint_count();
+  glm::dvec3 origin(0.0);
+  glm::dquat orientation(1.0, 0.0, 0.0, 0.0);
+  for (int i = 0; i < n; ++i) {
+    origin += orientation * chain.offset_translation(i);
+    const glm::dquat pre = orientation * chain.rest_rotation(i);
+    // Renormalising keeps long chains (100 joints) from drifting off unit length.
+    orientation = glm::normalize(pre * joint_motion(chain, i, params));
+    ws.joint_origins[i] = origin;
+    ws.joint_pre_rotations[i] = pre;
+    ws.joint_orientations[i] = orientation;
+  }
+  ws.tip = origin + orientation * chain.tip_offset();
+}
+
+int resolve_effector(const Chain& chain, int effector) {
+  return effector <= 0 ? chain.joint_count() : effector;
+}
+
+glm::dvec3 effector_position(const Chain& chain, const Workspace& ws, int effector) {
+  const int k = resolve_effector(chain, effector);
+  return k >= chain.joint_count() ? ws.tip : ws.joint_origins[k];
+}
+
+glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int effector) {
+  const int k = resolve_effector(chain, effector);
+  return ws.joint_orientations[k - 1];
+}
+
+void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws) {
+  const int n = chain.joint_count();
+  for (int i = 0; i < n; ++i) {
+    const int o = chain.dof_offset(i);
+    const glm::dquat& pre = ws.joint_pre_rotations[i];
+    if (chain.joint_type(i) == JointType::kHinge) {
+      ws.dof_axes[o] = pre * chain.hinge_axis(i);
+    } else {
+      const glm::dmat3 jl = so3::left_jacobian(glm::dvec3(params[o], params[o + 1], params[o + 2]));
+      for (int k = 0; k < 3; ++k) ws.dof_axes[o + k] = pre * jl[k];
+    }
+  }
+}
+
+namespace {
+
+// Aim residual: the rotation vector turning `axis_world` onto `direction` (both unit).
+glm::dvec3 aim_error(const glm::dvec3& axis_world, const glm::dvec3& direction) {
+  const glm::dvec3 c = glm::cross(axis_world, direction);
+  const double s = glm::length(c);
+  const double angle = std::atan2(s, glm::dot(axis_world, direction));
+  if (s > 1e-12) return c * (angle / s);
+  if (angle < 1.0) return glm::dvec3(0.0);
+  // Opposite: any perpendicular axis turns it, pick a stable one.
+  glm::dvec3 perp = glm::cross(axis_world, glm::dvec3(1, 0, 0));
+  if (glm::dot(perp, perp) < 1e-6) perp = glm::cross(axis_world, glm::dvec3(0, 1, 0));
+  return glm::normalize(perp) * angle;
+}
+
+glm::dvec3 goal_error(const Chain& chain, const Goal& g, const Workspace& ws) {
+  switch (g.kind) {
+    case GoalKind::kPosition:
+      return g.target_position - effector_position(chain, ws, g.effector);
+    case GoalKind::kOrientation:
+      return so3::log(glm::normalize(g.target_orientation) *
+                      glm::conjugate(effector_orientation(chain, ws, g.effector)));
+    case GoalKind::kAim: {
+      const glm::dvec3 a = glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis);
+      return aim_error(a, glm::normalize(g.aim_direction));
+    }
+  }
+  return glm::dvec3(0.0);
+}
+
+template <typename Sink>
+GoalErrors evaluate(const Chain& chain, Span<const Goal> goals, const Workspace& ws, Sink&& sink) {
+  GoalErrors out;
+  double weighted = 0.0;
+  for (int i = 0; i < goals.size; ++i) {
+    const Goal& g = goals[i];
+    const glm::dvec3 e = goal_error(chain, g, ws);
+    const double len2 = glm::dot(e, e);
+    weighted += g.weight * len2;
+    const double len = std::sqrt(len2);
+    if (g.kind == GoalKind::kPosition)
+      out.max_position = std::max(out.max_position, len);
+    else
+      out.max_orientation = std::max(out.max_orientation, len);
+    sink(i, e * std::sqrt(g.weight));
+  }
+  out.cost = 0.5 * weighted;
+  out.combined = std::sqrt(weighted);
+  return out;
+}
+
+}  // namespace
+
+GoalErrors evaluate_goals(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
+                          Eigen::Ref<Eigen::VectorXd> residual) {
+  return evaluate(chain, goals, ws, [&](int i, const glm::dvec3& e) {
+    residual[3 * i] = e.x;
+    residual[3 * i + 1] = e.y;
+    residual[3 * i + 2] = e.z;
+  });
+}
+
+GoalErrors measure_goals(const Chain& chain, Span<const Goal> goals, const Workspace& ws) {
+  return evaluate(chain, goals, ws, [](int, const glm::dvec3&) {});
+}
+
+void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
+                      Eigen::Ref<Eigen::MatrixXd> jacobian) {
+  const int n = chain.joint_count();
+  for (int gi = 0; gi < goals.size; ++gi) {
+    const Goal& g = goals[gi];
+    const int k = resolve_effector(chain, g.effector);
+    const double sw = std::sqrt(g.weight);
+    const int row = 3 * gi;
+    glm::dvec3 point(0.0), aim_axis(0.0);
+    if (g.kind == GoalKind::kPosition) point = effector_position(chain, ws, g.effector);
+    if (g.kind == GoalKind::kAim)
+      aim_axis = glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis);
+    for (int j = 0; j < n; ++j) {
+      const int o = chain.dof_offset(j);
+      const int cnt = chain.dof_count_of(j);
+      for (int d = 0; d < cnt; ++d) {
+        glm::dvec3 col(0.0);
+        if (j < k) {
+          const glm::dvec3& w = ws.dof_axes[o + d];
+          switch (g.kind) {
+            case GoalKind::kPosition: col = glm::cross(w, point - ws.joint_origins[j]); break;
+            case GoalKind::kOrientation: col = w; break;
+            // Only the part of the rotation perpendicular to the axis turns it.
+            case GoalKind::kAim: col = w - aim_axis * glm::dot(aim_axis, w); break;
+          }
+        }
+        jacobian(row, o + d) = sw * col.x;
+        jacobian(row + 1, o + d) = sw * col.y;
+        jacobian(row + 2, o + d) = sw * col.z;
+      }
+    }
+  }
+}
+
+void apply_step(const Chain& chain, const double* step, double max_step_angle, double* params) {
+  const int n = chain.joint_count();
+  for (int i = 0; i < n; ++i) {
+    const int o = chain.dof_offset(i);
+    if (chain.joint_type(i) == JointType::kHinge) {
+      double d = step[o];
+      if (max_step_angle > 0.0) d = std::clamp(d, -max_step_angle, max_step_angle);
+      params[o] += d;
+    } else {
+      glm::dvec3 d(step[o], step[o + 1], step[o + 2]);
+      const double len = glm::length(d);
+      if (max_step_angle > 0.0 && len > max_step_angle) d *= max_step_angle / len;
+      glm::dvec3 r(params[o] + d.x, params[o + 1] + d.y, params[o + 2] + d.z);
+      r = so3::wrap_rotation_vector(r);
+      params[o] = r.x;
+      params[o + 1] = r.y;
+      params[o + 2] = r.z;
+    }
+  }
+}
+
+namespace {
+
+// Projects a ball joint's local rotation onto its cone and twist limits. Returns true if changed.
+bool project_ball(const JointLimits& l, glm::dquat& q) {
+  if (!l.has_cone_limit && !l.has_twist_limit) return false;
+  glm::dquat swing;
+  double twist_angle = 0.0;
+  so3::swing_twist(q, l.twist_axis, swing, twist_angle);
+  bool changed = false;
+  if (l.has_twist_limit && (twist_angle < l.twist_min || twist_angle > l.twist_max)) {
+    twist_angle = std::clamp(twist_angle, l.twist_min, l.twist_max);
+    changed = true;
+  }
+  if (l.has_cone_limit) {
+    glm::dvec3 sv = so3::log(swing);
+    const double swing_angle = glm::length(sv);
+    if (swing_angle > l.cone_angle) {
+      sv *= l.cone_angle / swing_angle;
+      swing = so3::exp(sv);
+      changed = true;
+    }
+  }
+  if (changed) q = swing * glm::angleAxis(twist_angle, l.twist_axis);
+  return changed;
+}
+
+}  // namespace
+
+void project_to_limits(const Chain& chain, double* params) {
+  if (!chain.any_limits()) return;
+  const int n = chain.joint_count();
+  for (int i = 0; i < n; ++i) {
+    if (!chain.has_limits(i)) continue;
+    const JointLimits& l = chain.limits(i);
+    const int o = chain.dof_offset(i);
+    if (chain.joint_type(i) == JointType::kHinge) {
+      params[o] = std::clamp(params[o], l.hinge_min, l.hinge_max);
+      continue;
+    }
+    glm::dquat q = so3::exp(glm::dvec3(params[o], params[o + 1], params[o + 2]));
+    if (project_ball(l, q)) {
+      const glm::dvec3 r = so3::log(q);
+      params[o] = r.x;
+      params[o + 1] = r.y;
+      params[o + 2] = r.z;
+    }
+  }
+}
+
+bool within_limits(const Chain& chain, const double* params, double slack) {
+  const int n = chain.joint_count();
+  for (int i = 0; i < n; ++i) {
+    if (!chain.has_limits(i)) continue;
+    const JointLimits& l = chain.limits(i);
+    const int o = chain.dof_offset(i);
+    if (chain.joint_type(i) == JointType::kHinge) {
+      if (params[o] < l.hinge_min - slack || params[o] > l.hinge_max + slack) return false;
+      continue;
+    }
+    const glm::dquat q = so3::exp(glm::dvec3(params[o], params[o + 1], params[o + 2]));
+    glm::dquat swing;
+    double twist_angle = 0.0;
+    so3::swing_twist(q, l.twist_axis, swing, twist_angle);
+    if (l.has_twist_limit && (twist_angle < l.twist_min - slack || twist_angle > l.twist_max + slack))
+      return false;
+    if (l.has_cone_limit && glm::length(so3::log(swing)) > l.cone_angle + slack) return false;
+  }
+  return true;
+}
+
+}  // namespace ikchain

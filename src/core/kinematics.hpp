@@ -1,0 +1,62 @@
+// Forward kinematics, goal residuals and the goal Jacobian, shared by every solver.
+#pragma once
+#include <Eigen/Dense>
+
+#include "core/chain.hpp"
+#include "core/goal.hpp"
+#include "core/options.hpp"
+#include "core/span.hpp"
+#include "core/workspace.hpp"
+
+namespace ikchain {
+
+// Fills ws.joint_origins, joint_orientations, joint_pre_rotations and ws.tip from params.
+void forward_kinematics(const Chain& chain, const double* params, Workspace& ws);
+
+// Local rotation R_i(params) of joint i (excluding its rest rotation).
+glm::dquat joint_motion(const Chain& chain, int joint, const double* params);
+
+// Effector k in 1..n (0 = the tip); see chain.hpp. Valid after forward_kinematics().
+int resolve_effector(const Chain& chain, int effector);
+glm::dvec3 effector_position(const Chain& chain, const Workspace& ws, int effector);
+glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int effector);
+
+// World rotation axis of every DOF: ws.dof_axes. For a ball joint these are the columns of
+// pre_rotation * J_l(r), so that d(params) maps exactly to world angular velocity.
+// Valid after forward_kinematics().
+void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws);
+
+struct GoalErrors {
+  double cost = 0.0;               // 0.5 * sum_g w_g |e_g|^2
+  double combined = 0.0;           // sqrt(sum_g w_g |e_g|^2)
+  double max_position = 0.0;       // worst position goal (m)
+  double max_orientation = 0.0;    // worst orientation/aim goal (rad)
+  bool within(const SolverOptions& o) const {
+    return max_position <= o.position_tolerance && max_orientation <= o.orientation_tolerance;
+  }
+};
+
+// Residual rows e_g * sqrt(w_g) into `residual` (3 per goal, desired - current), after
+// forward_kinematics(). Returns the errors.
+GoalErrors evaluate_goals(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
+                          Eigen::Ref<Eigen::VectorXd> residual);
+
+// Same without writing residual rows.
+GoalErrors measure_goals(const Chain& chain, Span<const Goal> goals, const Workspace& ws);
+
+// Jacobian of the weighted residual rows w.r.t. params (d current / d params, i.e. the sign that
+// makes J * dparams ~= the achieved change of the effectors), 3 rows per goal.
+// Needs forward_kinematics() and compute_dof_axes().
+void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
+                      Eigen::Ref<Eigen::MatrixXd> jacobian);
+
+// params += step, capping any joint's rotation at max_step_angle (0 = none) and keeping ball
+// rotation vectors at angle <= pi. `step` has dof_count entries.
+void apply_step(const Chain& chain, const double* step, double max_step_angle, double* params);
+
+// Joint-space limits (hinge range, cone swing, twist range): project params onto the feasible set.
+void project_to_limits(const Chain& chain, double* params);
+// True when every joint respects its limits within `slack` (rad).
+bool within_limits(const Chain& chain, const double* params, double slack = 1e-9);
+
+}  // namespace ikchain

@@ -1,0 +1,57 @@
+// Solver options: every field has its default here, with its unit. validate() names a bad field.
+#pragma once
+#include "core/message.hpp"
+
+namespace ikchain {
+
+enum class SolverKind : int {
+  kTwoBone = 0,       // analytic, exactly 2 joints (law of cosines), optional pole
+  kCCD = 1,           // cyclic coordinate descent
+  kJacobianPinv = 2,  // Jacobian pseudo-inverse with residual check and step halving
+  kDLS = 3,           // damped least squares / Levenberg-Marquardt, adaptive damping
+  kBFGS = 4,          // quasi-Newton with a Wolfe line search
+  kFABRIK = 5,        // forward and backward reaching
+};
+constexpr int kSolverKindCount = 6;
+const char* to_string(SolverKind kind);
+
+struct SolverOptions {
+  // --- common
+  int max_iterations = 100;            // > 0; one iteration = one solver step / sweep
+  double position_tolerance = 1e-5;    // m; converged when every position goal is this close
+  double orientation_tolerance = 1e-4; // rad; converged when every orientation/aim goal is this close
+  // Stop as "stalled" when an iteration improves the objective by less than this fraction
+  // (relative, dimensionless) a few times in a row.
+  double stall_tolerance = 1e-10;
+  // true: start from the params given (the current pose); false: start from the rest pose
+  // (params = 0), so the result depends only on the goals (deterministic across frames).
+  bool warm_start = true;
+  // Largest rotation a single iteration may apply to one joint (rad); 0 = no cap.
+  double max_step_angle = 0.0;
+
+  // --- Jacobian pseudo-inverse
+  // The step is halved while the part of the desired change it cannot achieve,
+  // |(I - J J+) de|, exceeds this fraction of |de| (dimensionless, in (0, 1]).
+  double pinv_residual_tolerance = 0.1;
+  int pinv_max_halvings = 20;          // >= 0
+  double pinv_singular_threshold = 1e-9;  // singular values below this (m/rad) are treated as 0
+
+  // --- damped least squares (Levenberg-Marquardt)
+  double dls_initial_damping = 1e-3;   // lambda^2 start, m^2
+  double dls_min_damping = 1e-12;      // m^2, > 0
+  double dls_max_damping = 1e6;        // m^2, >= dls_min_damping
+
+  // --- BFGS (Wolfe line search, Nocedal & Wright Alg. 3.5/3.6)
+  double bfgs_wolfe_c1 = 1e-4;         // sufficient decrease, 0 < c1 < c2 < 1
+  double bfgs_wolfe_c2 = 0.9;          // curvature condition
+  int bfgs_max_line_search_steps = 20; // > 0
+
+  // --- two-bone
+  bool two_bone_use_pole = false;
+  double pole_x = 0.0, pole_y = 0.0, pole_z = 0.0;  // pole position in base space (m)
+
+  // Empty message when valid; otherwise names the field: "position_tolerance must be > 0, got -1".
+  Message validate() const;
+};
+
+}  // namespace ikchain

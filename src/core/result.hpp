@@ -1,0 +1,32 @@
+// One result struct for every solver (like Ceres' Solver::Summary).
+#pragma once
+#include "core/message.hpp"
+
+namespace ikchain {
+
+enum class TerminationReason : int {
+  kConverged = 0,      // every goal within tolerance
+  kMaxIterations = 1,  // iteration budget spent while still improving; pose usable, not converged
+  kStalled = 2,        // no more progress and not at a best-reach optimum (e.g. limits, local minimum)
+  kUnreachable = 3,    // goals cannot all be met; the pose is the best reach (a stationary point)
+  kInvalidInput = 4,   // options/goals/params/chain invalid; params untouched, see message
+};
+const char* to_string(TerminationReason reason);
+
+struct SolveResult {
+  TerminationReason reason = TerminationReason::kInvalidInput;
+  bool pose_usable = false;  // false only for kInvalidInput (params were left untouched)
+  int iterations = 0;
+  // Combined error sqrt(sum_g weight_g |e_g|^2): for a single position goal, the distance (m).
+  double initial_error = 0.0;
+  double final_error = 0.0;
+  // Worst goal of each kind (m, rad); 0 when there is no goal of that kind.
+  double initial_position_error = 0.0;
+  double final_position_error = 0.0;
+  double initial_orientation_error = 0.0;
+  double final_orientation_error = 0.0;
+  double elapsed_us = 0.0;  // wall-clock time of the whole solve call (microseconds)
+  Message message;          // why, for kInvalidInput (names the bad field); empty otherwise
+};
+
+}  // namespace ikchain

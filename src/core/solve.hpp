@@ -1,0 +1,24 @@
+// The one entry point: every solver has the same call (like KDL's position solvers).
+#pragma once
+#include <Eigen/Dense>
+
+#include "core/chain.hpp"
+#include "core/goal.hpp"
+#include "core/options.hpp"
+#include "core/result.hpp"
+#include "core/span.hpp"
+#include "core/workspace.hpp"
+
+namespace ikchain {
+
+// Moves `params` (joint parameters, chain.dof_count() entries; see chain.hpp) toward the goals.
+// On kInvalidInput params are untouched and result.message names the bad field. Never allocates
+// when workspace.fits(chain, goals.size); never throws; never writes a non-finite value to params.
+SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals,
+                  const SolverOptions& options, Workspace& workspace, Eigen::Ref<Eigen::VectorXd> params);
+
+// The checks solve() makes before running a solver; empty message when all is well.
+Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                        const Workspace& workspace, const Eigen::Ref<const Eigen::VectorXd>& params);
+
+}  // namespace ikchain

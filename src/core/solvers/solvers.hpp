@@ -1,0 +1,37 @@
+// The individual solvers, one per file in this folder. Call them through solve() (solve.hpp),
+// which does everything common to all of them; each function here may assume that:
+//  - chain, goals, options, params and workspace were validated (finite, sizes fit, weights > 0,
+//    effectors in range, workspace.fits(chain, goals.size));
+//  - params hold the start pose (warm or rest), already projected onto the joint limits;
+//  - the start pose is NOT already within tolerance.
+// Each must: allocate nothing and throw nothing; keep params within the joint limits; leave params
+// at the best (lowest-cost) pose it reached; return kConverged when every goal is within tolerance,
+// else kMaxIterations (budget spent) or kStalled (no further progress). solve() turns a
+// non-converged stop at a stationary best reach into kUnreachable. A solver with extra input rules
+// (two-bone: exactly 2 joints, one position goal) returns kInvalidInput with a message naming
+// the problem and leaves params untouched.
+#pragma once
+#include "core/chain.hpp"
+#include "core/goal.hpp"
+#include "core/message.hpp"
+#include "core/options.hpp"
+#include "core/result.hpp"
+#include "core/span.hpp"
+#include "core/workspace.hpp"
+
+namespace ikchain {
+
+struct SolverStatus {
+  TerminationReason reason = TerminationReason::kStalled;
+  int iterations = 0;
+  Message message;  // for kInvalidInput
+};
+
+SolverStatus solve_two_bone(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double* params);
+SolverStatus solve_ccd(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double* params);
+SolverStatus solve_jacobian_pinv(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double* params);
+SolverStatus solve_dls(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double* params);
+SolverStatus solve_bfgs(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double* params);
+SolverStatus solve_fabrik(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double* params);
+
+}  // namespace ikchain

@@ -1,0 +1,53 @@
+// Caller-owned scratch memory for solves. Sized once for a chain (reset() allocates); a solve on a
+// chain and goal count that fit() only reads and writes these buffers, so it allocates nothing.
+#pragma once
+#include <vector>
+
+#include <Eigen/Dense>
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+namespace ikchain {
+
+class Chain;
+
+struct Workspace {
+  Workspace() = default;
+  explicit Workspace(const Chain& chain, int max_goals = 4) { reset(chain, max_goals); }
+
+  // Allocates every buffer for `chain` and up to `max_goals` goals. Not for the per-frame path.
+  void reset(const Chain& chain, int max_goals = 4);
+  bool fits(const Chain& chain, int goal_count) const;
+
+  int max_goals = 0;
+  int joints = 0;
+  int dofs = 0;
+
+  // Forward kinematics (forward_kinematics() fills these), base space.
+  std::vector<glm::dvec3> joint_origins;        // o_i
+  std::vector<glm::dquat> joint_orientations;   // Q_i
+  std::vector<glm::dquat> joint_pre_rotations;  // Q_{i-1} * rest_rotation_i: the frame a joint's motion is in
+  glm::dvec3 tip{0.0};
+  std::vector<glm::dvec3> dof_axes;             // world rotation axis of each DOF (compute_dof_axes())
+
+  // Linear algebra scratch. Rows: 3 per goal; columns: one per DOF.
+  Eigen::MatrixXd jacobian;        // (3*max_goals) x dofs
+  Eigen::VectorXd residual;        // 3*max_goals
+  Eigen::VectorXd residual_trial;  // 3*max_goals
+  Eigen::MatrixXd goal_square;     // (3*max_goals)^2, e.g. J J^T
+  Eigen::VectorXd goal_vec;        // 3*max_goals
+  Eigen::MatrixXd dof_square;      // dofs x dofs, e.g. BFGS inverse Hessian
+  Eigen::VectorXd params_backup;   // the caller's params, restored on failure
+  Eigen::VectorXd params_trial;
+  Eigen::VectorXd params_best;
+  Eigen::VectorXd step;
+  Eigen::VectorXd gradient;
+  Eigen::VectorXd gradient_trial;
+  Eigen::VectorXd dof_vec_a;
+  Eigen::VectorXd dof_vec_b;
+  // Points along the chain (FABRIK): joints + tip.
+  std::vector<glm::dvec3> points_a;
+  std::vector<glm::dvec3> points_b;
+};
+
+}  // namespace ikchain

@@ -1,0 +1,50 @@
+#include "alloc_counter.hpp"
+
+#include <atomic>
+#include <cstddef>
+
+// Eigen allocates with std::malloc directly (not operator new), so the count is taken at malloc:
+// this executable's malloc family interposes glibc's and forwards to glibc's own entry points.
+// libstdc++'s operator new calls malloc, so containers are counted too.
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* __libc_memalign(std::size_t, std::size_t);
+void __libc_free(void*);
+}
+
+namespace {
+std::atomic<std::size_t> g_allocations{0};
+}
+
+namespace ikchain {
+namespace test {
+std::size_t allocation_count() { return g_allocations.load(std::memory_order_relaxed); }
+}  // namespace test
+}  // namespace ikchain
+
+extern "C" {
+void* malloc(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_malloc(size);
+}
+void* calloc(std::size_t n, std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_realloc(p, size);
+}
+int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  *out = __libc_memalign(alignment, size);
+  return *out ? 0 : 12;  // ENOMEM
+}
+void* aligned_alloc(std::size_t alignment, std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __libc_memalign(alignment, size);
+}
+void free(void* p) { __libc_free(p); }
+}

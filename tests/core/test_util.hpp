@@ -1,0 +1,75 @@
+// Shared helpers for the core tests: chain generators and reachable targets made by forward
+// kinematics (the round-trip oracle, as in KDL's solvertest.cpp).
+#pragma once
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/ikchain.hpp"
+
+namespace ikchain {
+namespace test {
+
+// n hinges alternating about z and y, unit links along +Y: the benchmark chain (as measured with KDL).
+inline Chain make_hinge_chain(int n, double link = 1.0) {
+  ChainBuilder b;
+  for (int i = 0; i < n; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, link, 0));
+  Chain c;
+  const Message m = b.build(c);
+  EXPECT_TRUE(m.empty()) << m.c_str();
+  return c;
+}
+
+// n ball joints, bones along +Y of the given length (a Godot-style bone chain).
+inline Chain make_ball_chain(int n, double link = 1.0) {
+  ChainBuilder b;
+  for (int i = 0; i < n; ++i) {
+    JointDesc j;
+    j.type = JointType::kBall;
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, link, 0));
+  Chain c;
+  const Message m = b.build(c);
+  EXPECT_TRUE(m.empty()) << m.c_str();
+  return c;
+}
+
+// Random joint parameters: hinges in [-pi, pi], ball rotation vectors with angle <= max_angle.
+inline Eigen::VectorXd random_params(const Chain& chain, std::mt19937& rng, double max_angle = 3.0) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd p(chain.dof_count());
+  for (int i = 0; i < chain.joint_count(); ++i) {
+    const int o = chain.dof_offset(i);
+    if (chain.joint_type(i) == JointType::kHinge) {
+      p[o] = u(rng) * max_angle;
+    } else {
+      glm::dvec3 axis(u(rng), u(rng), u(rng));
+      if (glm::length(axis) < 1e-3) axis = glm::dvec3(1, 0, 0);
+      axis = glm::normalize(axis) * (0.5 * (u(rng) + 1.0) * max_angle);
+      p[o] = axis.x;
+      p[o + 1] = axis.y;
+      p[o + 2] = axis.z;
+    }
+  }
+  project_to_limits(chain, p.data());
+  return p;
+}
+
+inline glm::dvec3 tip_of(const Chain& chain, const Eigen::VectorXd& params) {
+  Workspace ws(chain, 1);
+  forward_kinematics(chain, params.data(), ws);
+  return ws.tip;
+}
+
+}  // namespace test
+}  // namespace ikchain
