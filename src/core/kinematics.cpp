@@ -207,25 +207,26 @@ bool project_ball(const JointLimits& l, glm::dquat& q) {
 
 }  // namespace
 
+void project_joint_to_limits(const Chain& chain, int joint, double* params) {
+  if (!chain.has_limits(joint)) return;
+  const JointLimits& l = chain.limits(joint);
+  const int o = chain.dof_offset(joint);
+  if (chain.joint_type(joint) == JointType::kHinge) {
+    params[o] = std::clamp(params[o], l.hinge_min, l.hinge_max);
+    return;
+  }
+  glm::dquat q = so3::exp(glm::dvec3(params[o], params[o + 1], params[o + 2]));
+  if (project_ball(l, q)) {
+    const glm::dvec3 r = so3::log(q);
+    params[o] = r.x;
+    params[o + 1] = r.y;
+    params[o + 2] = r.z;
+  }
+}
+
 void project_to_limits(const Chain& chain, double* params) {
   if (!chain.any_limits()) return;
-  const int n = chain.joint_count();
-  for (int i = 0; i < n; ++i) {
-    if (!chain.has_limits(i)) continue;
-    const JointLimits& l = chain.limits(i);
-    const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) == JointType::kHinge) {
-      params[o] = std::clamp(params[o], l.hinge_min, l.hinge_max);
-      continue;
-    }
-    glm::dquat q = so3::exp(glm::dvec3(params[o], params[o + 1], params[o + 2]));
-    if (project_ball(l, q)) {
-      const glm::dvec3 r = so3::log(q);
-      params[o] = r.x;
-      params[o + 1] = r.y;
-      params[o + 2] = r.z;
-    }
-  }
+  for (int i = 0; i < chain.joint_count(); ++i) project_joint_to_limits(chain, i, params);
 }
 
 bool within_limits(const Chain& chain, const double* params, double slack) {

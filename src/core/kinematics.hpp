@@ -56,6 +56,8 @@ void apply_step(const Chain& chain, const double* step, double max_step_angle, d
 
 // Joint-space limits (hinge range, cone swing, twist range): project params onto the feasible set.
 void project_to_limits(const Chain& chain, double* params);
+// The same for one joint (CCD and FABRIK apply limits joint by joint).
+void project_joint_to_limits(const Chain& chain, int joint, double* params);
 // True when every joint respects its limits within `slack` (rad).
 bool within_limits(const Chain& chain, const double* params, double slack = 1e-9);
 

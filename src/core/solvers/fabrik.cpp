@@ -1,0 +1,158 @@
+// FABRIK: forward and backward reaching inverse kinematics.
+//
+// Source: Aristidou & Lasenby, "FABRIK: A fast, iterative solver for the Inverse Kinematics
+// problem", Graphical Models 73(5), 2011; Alg. 1 (the two reaching stages), sec. 4 (joint
+// constraints re-applied while iterating), sec. 5 (several end effectors: sub-bases).
+//
+// FABRIK works on positions: the points p_0..p_n (joint origins and the tip) with fixed bone
+// lengths l_i = |p_{i+1} - p_i|. One iteration = one forward + one backward stage:
+//  - forward reaching (tip to root, ws.points_b): the tip is placed on its target, then each point
+//    p_i is pulled to distance l_i from the point after it, along the line to its old position
+//    (ws.points_a = forward kinematics of the current params);
+//  - backward reaching (root to tip), fused with the conversion back to joint parameters: the root
+//    stays at o_0 and each joint j, in turn, turns so that its bone points at the forward-reaching
+//    point p_{j+1} (geometric::aim_chain_at_points). A ball joint takes the minimal rotation from its
+//    current bone direction (so a warm start keeps its twist); a hinge the angle that best aligns
+//    the next two points projected on the plane perpendicular to its axis. Each joint is projected
+//    onto its limits right after its update, and the next joint starts from where the chain
+//    actually is, so the constraints feed into the rest of the stage (the paper's per-joint
+//    re-positioning, sec. 4.2). Forward kinematics of the resulting params then gives the exact
+//    pose - points and parameters never disagree.
+//    For an unconstrained ball chain this is exactly the paper's backward stage.
+//  - out of reach (one tip position goal at least the chain's length from the root), the first
+//    iteration aims every bone at the target: the straight line toward it, the optimum (Alg. 1,
+//    lines 4-9). Later iterations only matter under limits or hinges.
+//  - a straight chain with the target straight ahead but closer is a fixed point (every forward-
+//    reaching point lands on the chain's own line); an iteration that changes no parameter while
+//    the goals are not met curls every joint by kKickAngle (at most kMaxKicks times) and goes on.
+//
+// Goal sets. FABRIK is a positional method:
+//  - position goals on any effector are supported: the tip goal (if any) anchors the forward stage,
+//    and a position goal on an intermediate effector k pins p_k to its target during the forward
+//    stage (a sub-base, sec. 5; several goals on one effector pin it to their weighted mean). Goal
+//    weights only matter between goals on the same effector.
+//  - orientation and aim goals are NOT pursued (they are measured, so such a solve reports
+//    kMaxIterations / kStalled with the position goals met). Use CCD or the Jacobian solvers.
+// Termination: converged on tolerance; stalled after kFabrikStallIterations iterations in a row
+// that improve the cost by less than stall_tolerance (relative to the previous one's) - a longer
+// window than CCD's, because with hinges FABRIK's cost is not monotone; otherwise the budget. The
+// best pose seen is returned.
+#include <algorithm>
+#include <cmath>
+
+#include "core/kinematics.hpp"
+#include "core/solvers/geometric_common.hpp"
+#include "core/solvers/solvers.hpp"
+
+namespace ikchain {
+
+namespace {
+
+constexpr int kFabrikStallIterations = 8;
+constexpr int kMaxKicks = 2;
+constexpr double kKickAngle = 0.1;     // rad per joint (see the singular-start note above)
+constexpr double kStillAngle = 1e-12;  // rad: an iteration changing no parameter more than this moved nothing
+
+// Weighted mean of the position goals on effector k (1..n); false when there are none.
+bool pinned_target(const Chain& chain, Span<const Goal> goals, int k, glm::dvec3& out) {
+  double weight = 0.0;
+  glm::dvec3 sum(0.0);
+  for (int g = 0; g < goals.size; ++g) {
+    if (goals[g].kind != GoalKind::kPosition || resolve_effector(chain, goals[g].effector) != k) continue;
+    sum += goals[g].weight * goals[g].target_position;
+    weight += goals[g].weight;
+  }
+  if (!(weight > 0.0)) return false;
+  out = sum / weight;
+  return true;
+}
+
+// Forward reaching stage into ws.points_b[1..n] from the current points ws.points_a.
+void forward_reaching(const Chain& chain, Span<const Goal> goals, Workspace& ws) {
+  const int n = chain.joint_count();
+  const glm::dvec3* a = ws.points_a.data();
+  glm::dvec3* b = ws.points_b.data();
+  if (!pinned_target(chain, goals, n, b[n])) b[n] = a[n];
+  for (int i = n - 1; i >= 1; --i) {
+    glm::dvec3 pin;
+    if (pinned_target(chain, goals, i, pin)) {
+      b[i] = pin;
+      continue;
+    }
+    glm::dvec3 dir = a[i] - b[i + 1];
+    double len = glm::length(dir);
+    if (!(len > 1e-12 * chain.total_length())) {  // on top of each other: keep the old bone direction
+      dir = a[i] - a[i + 1];
+      len = glm::length(dir);
+    }
+    b[i] = len > 0.0 ? b[i + 1] + dir * (chain.bone_length(i) / len) : b[i + 1];
+  }
+}
+
+}  // namespace
+
+SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                          Workspace& ws, double* params) {
+  SolverStatus status;
+  const int n = chain.joint_count();
+  forward_kinematics(chain, params, ws);
+  GoalErrors err = measure_goals(chain, goals, ws);
+  geometric::BestPose best;
+  best.init(chain, ws, params, err.cost);
+
+  const bool single_tip = goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
+                          resolve_effector(chain, goals[0].effector) == n;
+  const bool out_of_reach =
+      single_tip && glm::length(goals[0].target_position - chain.root_in_base()) >=
+                        chain.total_length() - options.position_tolerance;
+
+  int stalls = 0, kicks = 0;
+  double previous_cost = err.cost;
+  status.reason = TerminationReason::kMaxIterations;
+  while (status.iterations < options.max_iterations) {
+    if (status.iterations == 0 && out_of_reach) {
+      for (int k = 1; k <= n; ++k) ws.points_b[k] = goals[0].target_position;
+    } else {
+      for (int k = 0; k < n; ++k) ws.points_a[k] = ws.joint_origins[k];
+      ws.points_a[n] = ws.tip;
+      forward_reaching(chain, goals, ws);
+    }
+    std::copy(params, params + chain.dof_count(), ws.params_trial.data());
+    geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params);
+    ++status.iterations;
+    double moved = 0.0;
+    for (int d = 0; d < chain.dof_count(); ++d)
+      moved = std::max(moved, std::abs(params[d] - ws.params_trial[d]));
+    forward_kinematics(chain, params, ws);
+    err = measure_goals(chain, goals, ws);
+    best.offer(chain, ws, params, err.cost);
+    if (err.within(options)) {
+      status.reason = TerminationReason::kConverged;
+      return status;
+    }
+    if (moved <= kStillAngle) {
+      // A fixed point: the next iteration would repeat this one.
+      if (kicks < kMaxKicks && !out_of_reach) {
+        ++kicks;
+        geometric::curl(chain, kKickAngle, params);
+        forward_kinematics(chain, params, ws);
+        previous_cost = measure_goals(chain, goals, ws).cost;
+        stalls = 0;
+        continue;
+      }
+      status.reason = TerminationReason::kStalled;
+      break;
+    }
+    stalls = (previous_cost - err.cost <= options.stall_tolerance * previous_cost) ? stalls + 1 : 0;
+    previous_cost = err.cost;
+    if (stalls >= kFabrikStallIterations) {
+      status.reason = TerminationReason::kStalled;
+      break;
+    }
+  }
+  best.restore(chain, ws, params);
+  forward_kinematics(chain, params, ws);
+  return status;
+}
+
+}  // namespace ikchain

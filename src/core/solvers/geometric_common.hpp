@@ -1,0 +1,258 @@
+// Helpers shared by the geometric solvers (two-bone, CCD, FABRIK): minimal rotations between
+// directions, turning one joint by a world-space rotation, per-joint limit projection, the
+// root-to-tip "aim each bone at a point" pass, and best-pose bookkeeping. Header-only, internal to
+// src/core/solvers/ (not part of the public API).
+//
+// Every function here works on one joint at a time because the geometric solvers update joints one
+// by one (CCD tip-to-root, FABRIK root-to-tip) and must apply the limits of each joint right after
+// its update (Kenwright 2012, "Inverse kinematics - cyclic coordinate descent", sec. 4; Aristidou &
+// Lasenby 2011, "FABRIK", sec. 4.2: constraints are enforced per joint while iterating).
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include "core/chain.hpp"
+#include "core/kinematics.hpp"
+#include "core/so3.hpp"
+#include "core/workspace.hpp"
+
+namespace ikchain {
+namespace geometric {
+
+
+
+
+inline const glm::dquat kIdentity(1.0, 0.0, 0.0, 0.0);
+
+// A unit vector perpendicular to `v` (any length > 0), chosen stably: crosses `v` with the
+// coordinate axis it is least aligned with.
+inline glm::dvec3 any_perpendicular(const glm::dvec3& v) {
+  const glm::dvec3 a = glm::abs(v);
+  const glm::dvec3 other = (a.x <= a.y && a.x <= a.z) ? glm::dvec3(1, 0, 0)
+                           : (a.y <= a.z)             ? glm::dvec3(0, 1, 0)
+                                                      : glm::dvec3(0, 0, 1);
+  return glm::normalize(glm::cross(v, other));
+}
+
+// Normalised component of `v` perpendicular to the unit vector `axis`; false when it is shorter
+// than `min_length` (then `out` is untouched).
+inline bool perpendicular_part(const glm::dvec3& v, const glm::dvec3& axis, double min_length,
+                               glm::dvec3& out) {
+  const glm::dvec3 p = v - axis * glm::dot(v, axis);
+  const double len = glm::length(p);
+  if (!(len > min_length)) return false;
+  out = p / len;
+  return true;
+}
+
+// The minimal rotation taking the direction of `a` onto the direction of `b` (lengths ignored).
+// A zero vector gives the identity; opposite directions turn by pi about a stable perpendicular.
+// atan2 of (|a x b|, a.b) keeps the angle accurate at both ends of [0, pi].
+inline glm::dquat rotation_between(const glm::dvec3& a, const glm::dvec3& b) {
+  const double la = glm::length(a), lb = glm::length(b);
+  if (!(la > 0.0) || !(lb > 0.0)) return kIdentity;
+  const glm::dvec3 u = a / la, v = b / lb;
+  const glm::dvec3 c = glm::cross(u, v);
+  const double s = glm::length(c);
+  const double d = glm::dot(u, v);
+  if (s < 1e-15) return d > 0.0 ? kIdentity : glm::angleAxis(so3::kPi, any_perpendicular(u));
+  return glm::angleAxis(std::atan2(s, d), c / s);
+}
+
+// Least-squares hinge fit: the angle about the unit `axis` maximising sum_i w_i b_i . R(theta) a_i
+// (the rotation best turning the vectors a_i onto b_i, Wang & Chen 1991 eq. for a revolute joint):
+// theta = atan2(sum w axis.(a x b), sum w (a.b - (a.axis)(b.axis))). When every pair lies (to
+// rounding) along the axis the hinge cannot help and the angle is 0 - not atan2 of rounding noise.
+struct HingeFit {
+  double s = 0.0, c = 0.0, scale = 0.0;
+  void add(const glm::dvec3& axis, const glm::dvec3& a, const glm::dvec3& b, double w) {
+    s += w * glm::dot(axis, glm::cross(a, b));
+    c += w * (glm::dot(a, b) - glm::dot(a, axis) * glm::dot(b, axis));
+    scale += w * glm::length(a) * glm::length(b);
+  }
+  double angle() const { return std::hypot(s, c) > 1e-12 * scale ? std::atan2(s, c) : 0.0; }
+};
+
+inline double wrap_angle(double a) {
+  a = std::remainder(a, 2.0 * so3::kPi);  // [-pi, pi]
+  return a;
+}
+
+inline glm::dvec3 ball_param(const double* params, int o) {
+  return glm::dvec3(params[o], params[o + 1], params[o + 2]);
+}
+inline void set_ball_param(double* params, int o, const glm::dvec3& r) {
+  params[o] = r.x;
+  params[o + 1] = r.y;
+  params[o + 2] = r.z;
+}
+
+// World axis of hinge j given the frame its motion happens in (pre_j = Q_{j-1} * rest_rotation_j).
+inline glm::dvec3 hinge_axis_world(const Chain& chain, int j, const glm::dquat& pre_j) {
+  return pre_j * chain.hinge_axis(j);
+}
+
+// Turns ball joint j by the world rotation `delta` (about the joint's origin): Q_j <- delta * Q_j,
+// i.e. R_j <- conj(pre_j) * delta * pre_j * R_j. The angle is capped at max_step_angle (0 = none)
+// and the joint projected onto its limits. Returns the world rotation actually applied.
+inline glm::dquat turn_ball(const Chain& chain, int j, const glm::dquat& pre_j, glm::dquat delta,
+                            double max_step_angle, double* params) {
+  const int o = chain.dof_offset(j);
+  if (max_step_angle > 0.0) {
+    glm::dvec3 r = so3::log(delta);
+    const double angle = glm::length(r);
+    if (angle > max_step_angle) delta = so3::exp(r * (max_step_angle / angle));
+  }
+  const glm::dquat old_local = so3::exp(ball_param(params, o));
+  const glm::dquat new_local =
+      glm::normalize(glm::conjugate(pre_j) * delta * pre_j * old_local);
+  set_ball_param(params, o, so3::log(new_local));
+  project_joint_to_limits(chain, j, params);
+  const glm::dquat applied_local = so3::exp(ball_param(params, o)) * glm::conjugate(old_local);
+  return glm::normalize(pre_j * applied_local * glm::conjugate(pre_j));
+}
+
+// Turns hinge j by `angle` (rad) about its axis; same capping and projection as turn_ball. Returns
+// the angle actually applied. An unlimited hinge's angle is kept in [-pi, pi].
+inline double turn_hinge(const Chain& chain, int j, double angle, double max_step_angle,
+                         double* params) {
+  const int o = chain.dof_offset(j);
+  if (max_step_angle > 0.0) angle = std::clamp(angle, -max_step_angle, max_step_angle);
+  const double old = params[o];
+  if (chain.has_limits(j)) {
+    params[o] = old + angle;
+    project_joint_to_limits(chain, j, params);
+  } else {
+    params[o] = wrap_angle(old + angle);
+  }
+  return wrap_angle(params[o] - old);
+}
+
+// Running sums over the points k = j+1..n of one pass: the current points x_k and the desired
+// points y_k (both relative to the root, which keeps the sums' rounding at the chain's scale), so
+// that a hinge's least-squares fit over every point after it costs O(1) instead of O(n).
+struct PointSums {
+  int count = 0;
+  glm::dvec3 x{0.0}, y{0.0};
+  glm::dmat3 xy{0.0};  // sum x_k y_k^T
+  double xx = 0.0, yy = 0.0;
+  void add(const glm::dvec3& xk, const glm::dvec3& yk, double sign) {
+    count += sign > 0.0 ? 1 : -1;
+    x += sign * xk;
+    y += sign * yk;
+    xy += sign * glm::outerProduct(xk, yk);
+    xx += sign * glm::dot(xk, xk);
+    yy += sign * glm::dot(yk, yk);
+  }
+  // The hinge fit (see HingeFit) of the pairs a_k = turn * (x_k - xj) -> b_k = y_k - oj about the
+  // unit `axis`: with G = sum a_k b_k^T = turn * P, P = sum (x_k - xj)(y_k - oj)^T,
+  // s = axis . (sum a_k x b_k) (the axial vector of G) and c = tr G - axis^T G axis.
+  HingeFit fit(const glm::dvec3& axis, const glm::dquat& turn, const glm::dvec3& xj, const glm::dvec3& oj) const {
+    const double m = count;
+    const glm::dmat3 p = xy - glm::outerProduct(x, oj) - glm::outerProduct(xj, y) + m * glm::outerProduct(xj, oj);
+    const glm::dmat3 g = glm::mat3_cast(turn) * p;  // glm: g[col][row]
+    HingeFit f;
+    f.s = axis.x * (g[2][1] - g[1][2]) + axis.y * (g[0][2] - g[2][0]) + axis.z * (g[1][0] - g[0][1]);
+    f.c = g[0][0] + g[1][1] + g[2][2] - glm::dot(axis, g * axis);
+    // Cauchy-Schwarz bound on sum |a_k||b_k|, for HingeFit's "nothing to turn" test.
+    const double aa = xx - 2.0 * glm::dot(xj, x) + m * glm::dot(xj, xj);
+    const double bb = yy - 2.0 * glm::dot(oj, y) + m * glm::dot(oj, oj);
+    f.scale = std::sqrt(std::max(aa, 0.0) * std::max(bb, 0.0));
+    return f;
+  }
+};
+
+// Root-to-tip pass: each joint j in turn is rotated so that the chain after it best follows the
+// desired points `desired[k]` (k = 1..n: joint origins o_k, desired[n] = the tip), with the joints
+// before it already updated. Ball joints get the minimal rotation taking the bone o_j -> o_{j+1}
+// onto o_j -> desired[j+1]. A hinge gets the angle that best aligns (least squares, projected on
+// the plane perpendicular to its axis) ALL the points after it with their desired positions: the
+// bone alone is not enough, because a hinge whose bone runs along its own axis (a "twist" hinge,
+// as in the alternating z/y benchmark chain) cannot move o_{j+1} at all and is aimed only by the
+// points further on; fitting just the next one or two points left FABRIK at non-solution fixed
+// points on hinge chains (measured: 0.1% success at n = 10 vs 99% with all points).
+// A bone of zero length is aimed by the first later point off the joint. Limits are applied
+// joint by joint. This is FABRIK's backward-reaching stage (Aristidou & Lasenby 2011, sec. 3,
+// Alg. 1) fused with the conversion of positions to joint parameters; with every desired point
+// equal to one target it straightens the chain toward it (the optimum for an out-of-reach target).
+//
+// Needs ws filled by forward_kinematics(params) on entry (the "old" pose: the parts of the chain
+// after joint j are moved rigidly with it). Leaves ws stale; call forward_kinematics() after.
+inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dvec3* desired,
+                                double max_step_angle, double* params) {
+  const int n = chain.joint_count();
+  const double tiny = 1e-12 * chain.total_length();
+  const glm::dvec3 root = chain.root_in_base();
+  auto old_point = [&](int k) -> const glm::dvec3& { return k < n ? ws.joint_origins[k] : ws.tip; };
+  PointSums sums;
+  for (int k = 1; k <= n; ++k) sums.add(old_point(k) - root, desired[k] - root, 1.0);
+  glm::dvec3 origin = root;               // o_j of the updated chain
+  glm::dquat parent(1.0, 0.0, 0.0, 0.0);  // Q_{j-1} of the updated chain
+  for (int j = 0; j < n; ++j) {
+    if (j > 0) {
+      origin += parent * chain.offset_translation(j);
+      sums.add(old_point(j) - root, desired[j] - root, -1.0);  // now k = j+1..n
+    }
+    const glm::dquat pre = glm::normalize(parent * chain.rest_rotation(j));
+    // Rigid motion of the sub-chain from joint j on, caused by the updates before j.
+    const glm::dquat moved = glm::normalize(pre * glm::conjugate(ws.joint_pre_rotations[j]));
+    const glm::dvec3& old_origin = ws.joint_origins[j];
+    if (chain.joint_type(j) == JointType::kBall) {
+      for (int k = j + 1; k <= n; ++k) {
+        const glm::dvec3 current = moved * (old_point(k) - old_origin);
+        if (glm::length(current) <= tiny) continue;
+        turn_ball(chain, j, pre, rotation_between(current, desired[k] - origin), max_step_angle, params);
+        break;
+      }
+    } else {
+      const glm::dvec3 axis = hinge_axis_world(chain, j, pre);
+      const HingeFit fit = sums.fit(axis, moved, old_origin - root, origin - root);
+      turn_hinge(chain, j, fit.angle(), max_step_angle, params);
+    }
+    parent = glm::normalize(pre * joint_motion(chain, j, params));
+  }
+}
+
+// Bends every joint by `angle` (hinges about their axis, ball joints about a fixed perpendicular of
+// their bone), projected onto the limits. CCD and FABRIK use it to leave a saddle such as a straight
+// chain with the target straight ahead but closer, where neither method moves any joint.
+inline void curl(const Chain& chain, double angle, double* params) {
+  const int n = chain.joint_count();
+  for (int j = 0; j < n; ++j) {
+    if (chain.joint_type(j) == JointType::kHinge) {
+      turn_hinge(chain, j, angle, 0.0, params);
+      continue;
+    }
+    const int o = chain.dof_offset(j);
+    const glm::dvec3 bone = j + 1 < n ? chain.offset_translation(j + 1) : chain.tip_offset();
+    const glm::dvec3 axis = glm::length(bone) > 0.0 ? any_perpendicular(bone) : glm::dvec3(1, 0, 0);
+    set_ball_param(params, o, so3::log(so3::exp(ball_param(params, o)) * glm::angleAxis(angle, axis)));
+    project_joint_to_limits(chain, j, params);
+  }
+}
+
+// Keeps the lowest-cost pose seen so far in ws.params_best (the contract: leave params at the best
+// pose reached).
+struct BestPose {
+  double cost = 0.0;
+  void init(const Chain& chain, Workspace& ws, const double* params, double c) {
+    cost = c;
+    std::copy(params, params + chain.dof_count(), ws.params_best.data());
+  }
+  // Returns true when `c` is a new best.
+  bool offer(const Chain& chain, Workspace& ws, const double* params, double c) {
+    if (!(c < cost)) return false;
+    init(chain, ws, params, c);
+    return true;
+  }
+  void restore(const Chain& chain, const Workspace& ws, double* params) const {
+    std::copy(ws.params_best.data(), ws.params_best.data() + chain.dof_count(), params);
+  }
+};
+
+// Stall rule shared by CCD and FABRIK: an iteration that improves the cost by less than
+// stall_tolerance (relative) counts; this many in a row stop the solve.
+constexpr int kStallIterations = 3;
+
+}  // namespace geometric
+}  // namespace ikchain

@@ -1,0 +1,324 @@
+// Registration of an extension class with ClassDB: construction/destruction, methods with named
+// arguments (both the ptrcall and the Variant-call path), properties with hints and usage, integer
+// constants in named enums, and virtual overrides dispatched by name + hash
+// (get_virtual_call_data2 / call_virtual_with_data).
+//
+// Everything registered here (StringNames included) is created at SCENE init and released by
+// ClassDb::release() at SCENE deinit: no engine object lives in a static.
+#pragma once
+
+#include <gdextension_interface.h>
+
+#include <initializer_list>
+#include <memory>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "binding/builtins.hpp"
+#include "binding/engine.hpp"
+#include "binding/interface.hpp"
+#include "binding/log.hpp"
+
+namespace ikchain::gdx {
+
+// ---- argument traits for our bound methods ----
+template <class T>
+struct ArgTraits;
+
+template <>
+struct ArgTraits<bool> {
+  static constexpr GDExtensionVariantType kType = GDEXTENSION_VARIANT_TYPE_BOOL;
+  static constexpr GDExtensionClassMethodArgumentMetadata kMeta = GDEXTENSION_METHOD_ARGUMENT_METADATA_NONE;
+  static bool from_ptr(GDExtensionConstTypePtr p) { return *static_cast<const uint8_t*>(p) != 0; }
+  static void to_ptr(bool v, GDExtensionTypePtr r) { *static_cast<uint8_t*>(r) = v ? 1 : 0; }
+};
+template <>
+struct ArgTraits<int64_t> {
+  static constexpr GDExtensionVariantType kType = GDEXTENSION_VARIANT_TYPE_INT;
+  static constexpr GDExtensionClassMethodArgumentMetadata kMeta = GDEXTENSION_METHOD_ARGUMENT_METADATA_INT_IS_INT64;
+  static int64_t from_ptr(GDExtensionConstTypePtr p) { return *static_cast<const int64_t*>(p); }
+  static void to_ptr(int64_t v, GDExtensionTypePtr r) { *static_cast<int64_t*>(r) = v; }
+};
+template <>
+struct ArgTraits<double> {
+  static constexpr GDExtensionVariantType kType = GDEXTENSION_VARIANT_TYPE_FLOAT;
+  static constexpr GDExtensionClassMethodArgumentMetadata kMeta = GDEXTENSION_METHOD_ARGUMENT_METADATA_REAL_IS_DOUBLE;
+  static double from_ptr(GDExtensionConstTypePtr p) { return *static_cast<const double*>(p); }
+  static void to_ptr(double v, GDExtensionTypePtr r) { *static_cast<double*>(r) = v; }
+};
+// Builtins: ptrcall hands a pointer to a live value of the engine's layout; return slots hold a
+// constructed value that we assign to.
+template <class T, GDExtensionVariantType VT>
+struct BuiltinArgTraits {
+  static constexpr GDExtensionVariantType kType = VT;
+  static constexpr GDExtensionClassMethodArgumentMetadata kMeta = GDEXTENSION_METHOD_ARGUMENT_METADATA_NONE;
+  static T from_ptr(GDExtensionConstTypePtr p) { return *static_cast<const T*>(p); }
+  static void to_ptr(const T& v, GDExtensionTypePtr r) { *static_cast<T*>(r) = v; }
+};
+template <>
+struct ArgTraits<String> : BuiltinArgTraits<String, GDEXTENSION_VARIANT_TYPE_STRING> {};
+template <>
+struct ArgTraits<NodePath> : BuiltinArgTraits<NodePath, GDEXTENSION_VARIANT_TYPE_NODE_PATH> {};
+template <>
+struct ArgTraits<Dictionary> : BuiltinArgTraits<Dictionary, GDEXTENSION_VARIANT_TYPE_DICTIONARY> {};
+template <>
+struct ArgTraits<PackedStringArray> : BuiltinArgTraits<PackedStringArray, GDEXTENSION_VARIANT_TYPE_PACKED_STRING_ARRAY> {};
+
+// ---- property description ----
+struct PropertySpec {
+  const char* name;
+  GDExtensionVariantType type;
+  int64_t hint = gen::PropertyHint::PROPERTY_HINT_NONE;
+  const char* hint_string = "";
+  int64_t usage = gen::PropertyUsageFlags::PROPERTY_USAGE_DEFAULT;
+  const char* class_name = "";
+};
+
+// Owns the names and per-method data handed to the engine, for one class.
+struct ClassRecord;
+
+struct MethodRecordBase {
+  virtual ~MethodRecordBase() = default;
+};
+
+struct VirtualRecord {
+  StringName name;
+  uint32_t hash;
+  void (*thunk)(void* instance, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret);
+};
+
+struct ClassRecord {
+  StringName name;
+  StringName parent;
+  std::vector<std::unique_ptr<MethodRecordBase>> methods;
+  std::vector<std::unique_ptr<VirtualRecord>> virtuals;
+};
+
+namespace detail {
+
+template <class T>
+using bare_t = std::remove_cv_t<std::remove_reference_t<T>>;
+
+inline void set_call_error(GDExtensionCallError* e, GDExtensionCallErrorType type, int32_t argument, int32_t expected) {
+  if (e == nullptr) return;
+  e->error = type;
+  e->argument = argument;
+  e->expected = expected;
+}
+
+template <class C, class R, class... A>
+struct MethodRecord final : MethodRecordBase {
+  using Fn = R (*)(C&, bare_t<A>...);
+  Fn fn;
+  explicit MethodRecord(Fn f) : fn(f) {}
+
+  template <size_t... I>
+  static void ptrcall_impl(MethodRecord* self, C& obj, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret,
+                           std::index_sequence<I...>) {
+    if constexpr (std::is_void_v<R>) {
+      self->fn(obj, ArgTraits<bare_t<A>>::from_ptr(args[I])...);
+    } else {
+      ArgTraits<R>::to_ptr(self->fn(obj, ArgTraits<bare_t<A>>::from_ptr(args[I])...), r_ret);
+    }
+  }
+
+  static void ptrcall(void* userdata, GDExtensionClassInstancePtr instance, const GDExtensionConstTypePtr* args,
+                      GDExtensionTypePtr r_ret) {
+    try {
+      auto* self = static_cast<MethodRecord*>(userdata);
+      ptrcall_impl(self, *static_cast<C*>(instance), args, r_ret, std::index_sequence_for<A...>{});
+    } catch (...) {
+      IKCHAIN_PRINT_ERROR("IKChain: unexpected C++ exception in a bound method");
+    }
+  }
+
+  template <size_t... I>
+  static void call_impl(MethodRecord* self, C& obj, const GDExtensionConstVariantPtr* args, GDExtensionVariantPtr r_ret,
+                        GDExtensionCallError* r_error, std::index_sequence<I...>) {
+    std::tuple<bare_t<A>...> values;
+    int32_t bad = -1;
+    // Convert every argument by value; the first that cannot be converted is reported.
+    ((bad < 0 && !variant_to(args[I], std::get<I>(values)) ? (bad = int32_t(I), 0) : 0), ...);
+    if (bad >= 0) {
+      constexpr GDExtensionVariantType kExpected[] = {ArgTraits<bare_t<A>>::kType..., GDEXTENSION_VARIANT_TYPE_NIL};
+      set_call_error(r_error, GDEXTENSION_CALL_ERROR_INVALID_ARGUMENT, bad, int32_t(kExpected[bad]));
+      return;
+    }
+    if constexpr (std::is_void_v<R>) {
+      self->fn(obj, std::move(std::get<I>(values))...);
+    } else {
+      Variant::assign_to(r_ret, Variant(self->fn(obj, std::move(std::get<I>(values))...)));
+    }
+  }
+
+  static void call(void* userdata, GDExtensionClassInstancePtr instance, const GDExtensionConstVariantPtr* args,
+                   GDExtensionInt argc, GDExtensionVariantPtr r_ret, GDExtensionCallError* r_error) {
+    try {
+      set_call_error(r_error, GDEXTENSION_CALL_OK, 0, 0);
+      if (instance == nullptr) {
+        set_call_error(r_error, GDEXTENSION_CALL_ERROR_INSTANCE_IS_NULL, 0, 0);
+        return;
+      }
+      if (argc < GDExtensionInt(sizeof...(A))) {
+        set_call_error(r_error, GDEXTENSION_CALL_ERROR_TOO_FEW_ARGUMENTS, 0, int32_t(sizeof...(A)));
+        return;
+      }
+      if (argc > GDExtensionInt(sizeof...(A))) {
+        set_call_error(r_error, GDEXTENSION_CALL_ERROR_TOO_MANY_ARGUMENTS, 0, int32_t(sizeof...(A)));
+        return;
+      }
+      call_impl(static_cast<MethodRecord*>(userdata), *static_cast<C*>(instance), args, r_ret, r_error,
+                std::index_sequence_for<A...>{});
+    } catch (...) {
+      IKCHAIN_PRINT_ERROR("IKChain: unexpected C++ exception in a bound method");
+    }
+  }
+};
+
+}  // namespace detail
+
+// Registers class C (constructible as C(ObjectPtr owner)) deriving from an engine class.
+template <class C>
+class ClassBuilder {
+ public:
+  ClassBuilder(ClassRecord& record) : record_(record) {}
+
+  void register_class(bool has_validate_property) {
+    GDExtensionClassCreationInfo5 info{};
+    info.is_virtual = 0;
+    info.is_abstract = 0;
+    info.is_exposed = 1;
+    info.is_runtime = 0;
+    info.validate_property_func = has_validate_property ? &validate_property : nullptr;
+    info.create_instance_func = &create_instance;
+    info.free_instance_func = &free_instance;
+    info.get_virtual_call_data_func = &get_virtual_call_data;
+    info.call_virtual_with_data_func = &call_virtual_with_data;
+    info.class_userdata = &record_;
+    gde.classdb_register_extension_class5(gde.library, record_.name.ptr(), record_.parent.ptr(), &info);
+  }
+
+  // Binds `fn` (a plain function taking C& first; use a lambda without captures) as `name`.
+  template <class R, class... A>
+  void method(const char* name, R (*fn)(C&, A...), std::initializer_list<const char*> arg_names,
+              bool is_const = false) {
+    static_assert(sizeof...(A) < 8, "too many arguments");
+    auto record = std::make_unique<detail::MethodRecord<C, R, A...>>(fn);
+    StringName method_name(name);
+    std::vector<StringName> names;
+    std::vector<String> hints;
+    StringName empty_class;
+    for (const char* n : arg_names) names.emplace_back(n);
+    while (names.size() < sizeof...(A)) names.emplace_back("arg");
+    hints.resize(sizeof...(A) + 1);
+    GDExtensionPropertyInfo args_info[sizeof...(A) + 1] = {};
+    GDExtensionClassMethodArgumentMetadata args_meta[sizeof...(A) + 1] = {};
+    size_t i = 0;
+    ((args_info[i] = GDExtensionPropertyInfo{ArgTraits<detail::bare_t<A>>::kType, names[i].ptr(), empty_class.ptr(),
+                                             uint32_t(gen::PropertyHint::PROPERTY_HINT_NONE), hints[i].ptr(),
+                                             uint32_t(gen::PropertyUsageFlags::PROPERTY_USAGE_DEFAULT)},
+      args_meta[i] = ArgTraits<detail::bare_t<A>>::kMeta, ++i),
+     ...);
+    StringName ret_name;
+    GDExtensionPropertyInfo ret_info{};
+    init_return_info(ret_info, ret_name, empty_class, hints.back());
+
+    GDExtensionClassMethodInfo mi{};
+    mi.name = method_name.ptr();
+    mi.method_userdata = record.get();
+    mi.call_func = &detail::MethodRecord<C, R, A...>::call;
+    mi.ptrcall_func = &detail::MethodRecord<C, R, A...>::ptrcall;
+    mi.method_flags = GDEXTENSION_METHOD_FLAG_NORMAL | (is_const ? GDEXTENSION_METHOD_FLAG_CONST : 0);
+    if constexpr (!std::is_void_v<R>) {
+      mi.has_return_value = 1;
+      ret_info.type = ArgTraits<R>::kType;
+      mi.return_value_info = &ret_info;
+      mi.return_value_metadata = ArgTraits<R>::kMeta;
+    }
+    mi.argument_count = uint32_t(sizeof...(A));
+    mi.arguments_info = args_info;
+    mi.arguments_metadata = args_meta;
+    gde.classdb_register_extension_class_method(gde.library, record_.name.ptr(), &mi);
+    record_.methods.push_back(std::move(record));
+  }
+
+  void property(const PropertySpec& spec, const char* setter, const char* getter) {
+    StringName name(spec.name), class_name(spec.class_name), set(setter), get(getter);
+    String hint_string(spec.hint_string);
+    GDExtensionPropertyInfo info{spec.type, name.ptr(), class_name.ptr(), uint32_t(spec.hint), hint_string.ptr(),
+                                 uint32_t(spec.usage)};
+    gde.classdb_register_extension_class_property(gde.library, record_.name.ptr(), &info, set.ptr(), get.ptr());
+  }
+
+  void constant(const char* enum_name, const char* name, int64_t value) {
+    StringName e(enum_name), n(name);
+    gde.classdb_register_extension_class_integer_constant(gde.library, record_.name.ptr(), e.ptr(), n.ptr(), value, 0);
+  }
+
+  // A virtual of the parent class that C overrides; `hash` comes from extension_api.json.
+  void virtual_override(const char* name, uint32_t hash,
+                        void (*thunk)(void*, const GDExtensionConstTypePtr*, GDExtensionTypePtr)) {
+    record_.virtuals.push_back(std::make_unique<VirtualRecord>(VirtualRecord{StringName(name), hash, thunk}));
+  }
+
+ private:
+  static void init_return_info(GDExtensionPropertyInfo& info, StringName& name, StringName& class_name,
+                                          String& hint) {
+    info.type = GDEXTENSION_VARIANT_TYPE_NIL;
+    info.name = name.ptr();
+    info.class_name = class_name.ptr();
+    info.hint = uint32_t(gen::PropertyHint::PROPERTY_HINT_NONE);
+    info.hint_string = hint.ptr();
+    info.usage = uint32_t(gen::PropertyUsageFlags::PROPERTY_USAGE_DEFAULT);
+  }
+
+  static GDExtensionObjectPtr create_instance(void* class_userdata, GDExtensionBool notify_postinitialize) {
+    auto* record = static_cast<ClassRecord*>(class_userdata);
+    ObjectPtr object = gde.classdb_construct_object2(record->parent.ptr());
+    if (object == nullptr) return nullptr;
+    C* self = new C(object);
+    gde.object_set_instance(object, record->name.ptr(), self);
+    // classdb_construct_object2 does not send POSTINITIALIZE: the extension must, when asked.
+    if (notify_postinitialize) call(gen::Method::Object_notification, object, int64_t(0), false);
+    return object;
+  }
+
+  static void free_instance(void*, GDExtensionClassInstancePtr instance) { delete static_cast<C*>(instance); }
+
+  static GDExtensionBool validate_property(GDExtensionClassInstancePtr instance, GDExtensionPropertyInfo* property) {
+    try {
+      return static_cast<C*>(instance)->validate_property(*property) ? 1 : 0;
+    } catch (...) {
+      return 0;
+    }
+  }
+
+  static void* get_virtual_call_data(void* class_userdata, GDExtensionConstStringNamePtr name, uint32_t hash) {
+    auto* record = static_cast<ClassRecord*>(class_userdata);
+    for (const auto& v : record->virtuals) {
+      if (!v->name.equals(name)) continue;
+      if (v->hash != hash) {
+        IKCHAIN_PRINT_ERROR("IKChain: virtual method hash differs from the engine's; override not installed");
+        return nullptr;
+      }
+      return v.get();
+    }
+    return nullptr;
+  }
+
+  static void call_virtual_with_data(GDExtensionClassInstancePtr instance, GDExtensionConstStringNamePtr,
+                                     void* data, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret) {
+    try {
+      static_cast<VirtualRecord*>(data)->thunk(instance, args, r_ret);
+    } catch (...) {
+      IKCHAIN_PRINT_ERROR("IKChain: unexpected C++ exception in a virtual method");
+    }
+  }
+
+  ClassRecord& record_;
+};
+
+}  // namespace ikchain::gdx
