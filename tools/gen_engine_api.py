@@ -12,6 +12,7 @@ List format (one entry a line, '#' starts a comment):
   builtin     Builtin method_name        method of a builtin (Variant) type
   constructor Builtin ArgType,ArgType    builtin constructor by argument types ('-' for none)
   enum        EnumName                   a global enum's values (e.g. PropertyHint)
+  constant    Class NAME                 an engine class's integer constant (e.g. notifications)
   size        Builtin                    builtin size for the engine's build configuration
 """
 import json
@@ -49,7 +50,7 @@ def main(argv):
     builtins = {c["name"]: c for c in api["builtin_classes"]}
     enums = {e["name"]: e for e in api["global_enums"]}
 
-    methods, virtuals, bmethods, ctors, enum_lines, size_lines = [], [], [], [], [], []
+    methods, virtuals, bmethods, ctors, enum_lines, size_lines, const_lines = [], [], [], [], [], [], []
     errors = []
 
     def find_class_method(cls, name):
@@ -123,6 +124,16 @@ def main(argv):
                     errors.append("%s: global enum %s not found" % (where, name))
                     continue
                 enum_lines.append((name, [(v["name"], v["value"]) for v in enums[name]["values"]]))
+            elif kind == "constant":
+                if len(parts) != 3:
+                    errors.append("%s: expected 'constant Class NAME'" % where)
+                    continue
+                cls, name = parts[1], parts[2]
+                found = [k for k in classes.get(cls, {}).get("constants", []) if k["name"] == name]
+                if not found:
+                    errors.append("%s: constant %s.%s not found in extension_api.json" % (where, cls, name))
+                    continue
+                const_lines.append((cls, name, found[0]["value"]))
             elif kind == "size":
                 t = parts[1]
                 if t not in sizes:
@@ -186,6 +197,10 @@ def main(argv):
         for vn, vv in values:
             w("inline constexpr int64_t %s = %d;" % (vn, vv))
         w("}  // namespace %s" % ident(name))
+    w("")
+    w("// Engine class constants.")
+    for cls, name, value in const_lines:
+        w("inline constexpr int64_t k%s_%s = %d;" % (cls, name, value))
     w("")
     w("// Builtin sizes for %s." % config)
     for t, s in size_lines:

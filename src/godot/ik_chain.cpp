@@ -109,7 +109,7 @@ void v_skeleton_changed(void* self, const GDExtensionConstTypePtr*, GDExtensionT
 void IKChain::register_class(gdx::ClassRecord& record) {
   g_names = new Names();
   gdx::ClassBuilder<IKChain> b(record);
-  b.register_class(/*has_validate_property=*/true);
+  b.register_class(/*has_validate_property=*/true, /*has_notification=*/true);
 
   b.method("set_root_bone", &b_set_root_bone, {"bone_name"});
   b.method("get_root_bone", &b_get_root_bone, {}, true);
@@ -406,6 +406,11 @@ void IKChain::set_invalid_result() {
   last_ = SolveResult();
   last_.reason = TerminationReason::kInvalidInput;
   last_.pose_usable = false;
+}
+
+void IKChain::notification(int32_t what) {
+  if (what != gdx::gen::kNode_NOTIFICATION_ENTER_TREE) return;
+  if (find_skeleton(owner_) == nullptr) report_once(kNoSkeleton);
 }
 
 void IKChain::process_modification(double /*delta*/) {

@@ -61,6 +61,9 @@ class IKChain {
   // Engine callbacks.
   bool validate_property(GDExtensionPropertyInfo& property);
   void process_modification(double delta);
+  // Godot never runs the modification without a Skeleton3D parent, so that problem is reported
+  // when the node enters the tree.
+  void notification(int32_t what);
   gdx::PackedStringArray get_configuration_warnings() const;
   void skeleton_changed();  // marks the chain dirty (virtual _skeleton_changed and skeleton signals)
 

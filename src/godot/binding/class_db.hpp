@@ -186,13 +186,16 @@ class ClassBuilder {
  public:
   ClassBuilder(ClassRecord& record) : record_(record) {}
 
-  void register_class(bool has_validate_property) {
+  // C::validate_property(GDExtensionPropertyInfo&) and C::notification(int32_t what) are
+  // installed when the flags say C has them.
+  void register_class(bool has_validate_property, bool has_notification = false) {
     GDExtensionClassCreationInfo5 info{};
     info.is_virtual = 0;
     info.is_abstract = 0;
     info.is_exposed = 1;
     info.is_runtime = 0;
     info.validate_property_func = has_validate_property ? &validate_property : nullptr;
+    info.notification_func = has_notification ? &notification : nullptr;
     info.create_instance_func = &create_instance;
     info.free_instance_func = &free_instance;
     info.get_virtual_call_data_func = &get_virtual_call_data;
@@ -293,6 +296,14 @@ class ClassBuilder {
       return static_cast<C*>(instance)->validate_property(*property) ? 1 : 0;
     } catch (...) {
       return 0;
+    }
+  }
+
+  static void notification(GDExtensionClassInstancePtr instance, int32_t what, GDExtensionBool /*reversed*/) {
+    try {
+      static_cast<C*>(instance)->notification(what);
+    } catch (...) {
+      IKCHAIN_PRINT_ERROR("IKChain: unexpected C++ exception in a notification");
     }
   }
 

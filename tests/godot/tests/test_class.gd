@@ -1,0 +1,111 @@
+# The IKChain class as scripts see it: registration, constants, property defaults and types,
+# both property paths (typed ptrcall and Variant set/get), and get_last_result() before any solve.
+extends "res://lib/ik_test.gd"
+
+
+func test_class_is_registered() -> void:
+	check(ClassDB.class_exists("IKChain"), "ClassDB knows IKChain")
+	check_eq(ClassDB.get_parent_class("IKChain"), &"SkeletonModifier3D", "IKChain's parent class")
+	check(ClassDB.can_instantiate("IKChain"), "IKChain can be instantiated")
+	var ik := IKChain.new()
+	check(ik is SkeletonModifier3D, "IKChain.new() is SkeletonModifier3D")
+	check(ik is Node3D, "IKChain.new() is Node3D")
+	check_eq(ik.get_class(), "IKChain", "get_class()")
+	ik.free()
+	var by_name: Object = ClassDB.instantiate("IKChain")
+	check(by_name is SkeletonModifier3D, "ClassDB.instantiate(\"IKChain\") is SkeletonModifier3D")
+	by_name.free()
+
+
+func test_solver_constants() -> void:
+	check_eq(IKChain.SOLVER_TWO_BONE, 0, "SOLVER_TWO_BONE")
+	check_eq(IKChain.SOLVER_CCD, 1, "SOLVER_CCD")
+	check_eq(IKChain.SOLVER_JACOBIAN, 2, "SOLVER_JACOBIAN")
+	check_eq(IKChain.SOLVER_DLS, 3, "SOLVER_DLS")
+	check_eq(IKChain.SOLVER_BFGS, 4, "SOLVER_BFGS")
+	check_eq(IKChain.SOLVER_FABRIK, 5, "SOLVER_FABRIK")
+	for c in ["SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS", "SOLVER_BFGS", "SOLVER_FABRIK"]:
+		check(ClassDB.class_has_integer_constant("IKChain", c), "ClassDB has constant " + c)
+
+
+func test_property_defaults() -> void:
+	var ik := IKChain.new()
+	check_eq(ik.root_bone, "", "root_bone default")
+	check_eq(ik.tip_bone, "", "tip_bone default")
+	check_eq(ik.target, NodePath(), "target default")
+	check_eq(ik.solver, IKChain.SOLVER_DLS, "solver default")
+	check_eq(ik.max_iterations, 64, "max_iterations default")
+	check_near(ik.tolerance, 0.0001, 1e-9, "tolerance default")
+	check_eq(ik.deterministic, false, "deterministic default")
+	check(ik.active, "active (inherited) default true")
+	ik.free()
+
+
+func test_property_types() -> void:
+	var ik := IKChain.new()
+	var want := {"root_bone": TYPE_STRING, "tip_bone": TYPE_STRING, "target": TYPE_NODE_PATH,
+			"solver": TYPE_INT, "max_iterations": TYPE_INT, "tolerance": TYPE_FLOAT,
+			"deterministic": TYPE_BOOL}
+	var seen := {}
+	for p in ik.get_property_list():
+		if want.has(p["name"]):
+			seen[p["name"]] = true
+			check_eq(p["type"], want[p["name"]], "type of property " + p["name"])
+			check((p["usage"] & PROPERTY_USAGE_STORAGE) != 0, "property %s is stored in scenes" % p["name"])
+	for name in want:
+		check(seen.has(name), "property %s is listed" % name)
+	ik.free()
+
+
+func test_typed_setters_round_trip() -> void:
+	var ik := IKChain.new()
+	ik.root_bone = "upper_arm"
+	ik.tip_bone = "hand"
+	ik.target = NodePath("../../Target")
+	ik.solver = IKChain.SOLVER_FABRIK
+	ik.max_iterations = 7
+	ik.tolerance = 0.002
+	ik.deterministic = true
+	check_eq(ik.root_bone, "upper_arm", "root_bone")
+	check_eq(ik.tip_bone, "hand", "tip_bone")
+	check_eq(ik.target, NodePath("../../Target"), "target")
+	check_eq(ik.solver, IKChain.SOLVER_FABRIK, "solver")
+	check_eq(ik.max_iterations, 7, "max_iterations")
+	check_near(ik.tolerance, 0.002, 1e-9, "tolerance")
+	check_eq(ik.deterministic, true, "deterministic")
+	ik.free()
+
+
+func test_variant_set_get_round_trip() -> void:
+	# Untyped set()/get() go through the Variant call path, where an int may arrive for a float.
+	var ik: Object = ClassDB.instantiate("IKChain")
+	ik.set("root_bone", "j0")
+	ik.set("tip_bone", "tip")
+	ik.set("target", NodePath("Target"))
+	ik.set("solver", 1)
+	ik.set("max_iterations", 12)
+	ik.set("tolerance", 1)  # an int for a float property
+	ik.set("deterministic", true)
+	check_eq(ik.get("root_bone"), "j0", "get(root_bone)")
+	check_eq(ik.get("tip_bone"), "tip", "get(tip_bone)")
+	check_eq(ik.get("target"), NodePath("Target"), "get(target)")
+	check_eq(ik.get("solver"), 1, "get(solver)")
+	check_eq(ik.get("max_iterations"), 12, "get(max_iterations)")
+	check_eq(ik.get("tolerance"), 1.0, "get(tolerance) after set(int 1)")
+	check_eq(ik.get("deterministic"), true, "get(deterministic)")
+	ik.set("tolerance", 0.25)
+	check_eq(ik.get("tolerance"), 0.25, "get(tolerance) after set(0.25)")
+	ik.free()
+
+
+func test_last_result_before_any_solve() -> void:
+	var ik := IKChain.new()
+	var r: Dictionary = ik.get_last_result()
+	for key in ["reason", "iterations", "initial_error", "final_error", "microseconds", "usable"]:
+		check(r.has(key), "get_last_result() has key " + key)
+	check_eq(r.get("reason"), "not_run", "reason before any solve")
+	check_eq(r.get("usable"), false, "usable before any solve")
+	for key in ["initial_error", "final_error"]:
+		check(typeof(r.get(key)) == TYPE_FLOAT and not is_nan(r.get(key)), "%s is a float, not NaN" % key)
+	check(typeof(r.get("iterations")) == TYPE_INT, "iterations is an int")
+	ik.free()
