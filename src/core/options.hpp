@@ -30,9 +30,13 @@ struct SolverOptions {
   double max_step_angle = 0.0;
 
   // --- Jacobian pseudo-inverse
-  // The step is halved while the part of the desired change it cannot achieve,
-  // |(I - J J+) de|, exceeds this fraction of |de| (dimensionless, in (0, 1]).
-  double pinv_residual_tolerance = 0.1;
+  // The step is halved while the change the trial pose achieves misses the change the step
+  // promised (J J+ de) by more than this fraction of it (dimensionless, in (0, 1]); see
+  // solvers/jacobian_pinv.cpp for why this, not |(I - J J+) de| / |de|, is what halving controls.
+  // 0.5: a step must deliver at least half the change it promised. Measured on the benchmark
+  // hinge chains (n = 3 / 10, 2000 targets): 0.1 needs a median of 31 / 28 iterations and leaves
+  // 2.8% of 3-joint targets unsolved in 100; 0.5 needs 10 / 10 and solves all.
+  double pinv_residual_tolerance = 0.5;
   int pinv_max_halvings = 20;          // >= 0
   double pinv_singular_threshold = 1e-9;  // singular values below this (m/rad) are treated as 0
 

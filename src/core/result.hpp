@@ -18,6 +18,8 @@ struct SolveResult {
   bool pose_usable = false;  // false only for kInvalidInput (params were left untouched)
   int iterations = 0;
   // Combined error sqrt(sum_g weight_g |e_g|^2): for a single position goal, the distance (m).
+  // "Initial" is the pose the solver starts from: the given one (warm start) or the rest pose,
+  // after projection onto the limits.
   double initial_error = 0.0;
   double final_error = 0.0;
   // Worst goal of each kind (m, rad); 0 when there is no goal of that kind.

@@ -26,14 +26,20 @@ bool finite3(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v
 bool params_finite(const Eigen::Ref<const Eigen::VectorXd>& p) { return p.allFinite(); }
 
 // A non-converged stop is "unreachable" when the pose is a best reach: either the only goal is a
-// tip position beyond the chain's length, or the objective's gradient J^T e vanishes (a stationary
-// point with error left). Limits make constrained optima non-stationary: those stay "stalled".
+// tip position beyond the chain's length and the tip is as close as the chain's length allows
+// (within position_tolerance), or the objective's gradient J^T e vanishes (a stationary point with
+// error left). Limits make constrained optima non-stationary: those stay "stalled".
 bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                    Workspace& ws, const double* params) {
   if (goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
       resolve_effector(chain, goals[0].effector) == chain.joint_count()) {
     const double dist = glm::length(goals[0].target_position - chain.root_in_base());
-    if (dist > chain.total_length() + options.position_tolerance) return true;
+    const double best = dist - chain.total_length();
+    if (best > options.position_tolerance) {
+      forward_kinematics(chain, params, ws);
+      const double reached = glm::length(goals[0].target_position - ws.tip);
+      return reached <= best + options.position_tolerance;
+    }
   }
   if (chain.any_limits()) return false;
   const int rows = 3 * goals.size;
@@ -112,17 +118,14 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   ws.params_backup = params;
   double* p = params.data();
 
-  // Initial error: of the pose as given (what the caller sees before the solve).
+  // The start pose: the current one (warm start) or the rest pose, made feasible.
+  if (!options.warm_start) params.setZero();
+  project_to_limits(chain, p);
   forward_kinematics(chain, p, ws);
   GoalErrors err = measure_goals(chain, goals, ws);
   result.initial_error = err.combined;
   result.initial_position_error = err.max_position;
   result.initial_orientation_error = err.max_orientation;
-
-  if (!options.warm_start) params.setZero();
-  project_to_limits(chain, p);
-  forward_kinematics(chain, p, ws);
-  err = measure_goals(chain, goals, ws);
 
   SolverStatus status;
   if (err.within(options)) {

@@ -1,0 +1,582 @@
+// Solver-core benchmark: speed, success rate and precision of every ikchain solver on the
+// benchmark chain (n hinges alternating about z and y, unit links), with Orocos KDL's
+// ChainIkSolverPos_LMA on the same chains and targets as a reference row.
+//
+// Writes three JSON files into the output directory (scripts/bench prints and plots them):
+//   core.json        one record per (solver, joints): success rate, median/p90 time, iterations
+//   precision.json   the lecture's precision case: a target 2 units beyond full reach
+//   convergence.json error after k iterations, k = 1..K, for one fixed target at n = 10
+//
+// Method (see docs/benchmarks.md): targets are FK tips of seeded random joint vectors (so they are
+// reachable), every solve starts from the rest pose (warm_start = false), success is judged by our
+// own FK of the returned pose (distance <= 1e-5 * L, L = chain length), and each solve is timed
+// with std::chrono::steady_clock around the solve() call (the dispatcher's validation and
+// error measurement included: what a caller pays). Medians over many solves, after a warm-up.
+//
+// Usage: core_bench [--out DIR] [--quick]     (--quick: few trials, for smoke runs)
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <kdl/chain.hpp>
+#include <kdl/chainfksolverpos_recursive.hpp>
+#include <kdl/chainiksolverpos_lma.hpp>
+#include <kdl/frames.hpp>
+#include <kdl/jntarray.hpp>
+
+#include "core/ikchain.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using ikchain::Chain;
+using ikchain::SolverKind;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kRelTolerance = 1e-5;  // success: distance <= kRelTolerance * L
+constexpr int kKdlMaxIterations = 500;  // KDL's own default
+constexpr const char* kKdlName = "kdl_lma";
+
+// ------------------------------------------------------------------------------------ chains
+
+// n hinges alternating about z and y, unit links along +Y: a copy of tests/core/test_util.hpp's
+// make_hinge_chain (the bench does not depend on the test tree). Planar: every hinge about z.
+Chain make_hinge_chain(int n, bool planar = false, double link = 1.0) {
+  ikchain::ChainBuilder b;
+  for (int i = 0; i < n; ++i) {
+    ikchain::JointDesc j;
+    j.type = ikchain::JointType::kHinge;
+    j.hinge_axis = (planar || i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, link, 0));
+  Chain c;
+  const ikchain::Message m = b.build(c);
+  if (!m.empty()) {
+    std::fprintf(stderr, "chain build failed: %s\n", m.c_str());
+    std::exit(2);
+  }
+  return c;
+}
+
+// The same chain for KDL: segment i = hinge (RotZ / RotY) followed by a unit link along +Y, so
+// segment tip i is joint origin i+1 (and the last one is our tip). Checked by check_kdl_matches().
+KDL::Chain make_kdl_chain(int n, bool planar = false, double link = 1.0) {
+  KDL::Chain c;
+  for (int i = 0; i < n; ++i) {
+    const KDL::Joint joint((planar || i % 2 == 0) ? KDL::Joint::RotZ : KDL::Joint::RotY);
+    c.addSegment(KDL::Segment(joint, KDL::Frame(KDL::Vector(0.0, link, 0.0))));
+  }
+  return c;
+}
+
+glm::dvec3 tip_of(const Chain& chain, const double* params, ikchain::Workspace& ws) {
+  ikchain::forward_kinematics(chain, params, ws);
+  return ws.tip;
+}
+
+// Reachable targets: FK tips of uniform random joint vectors in [-pi, pi]^n (seeded).
+std::vector<glm::dvec3> random_targets(const Chain& chain, int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-kPi, kPi);
+  ikchain::Workspace ws(chain, 1);
+  Eigen::VectorXd q(chain.dof_count());
+  std::vector<glm::dvec3> out;
+  out.reserve(count);
+  for (int t = 0; t < count; ++t) {
+    for (int i = 0; i < q.size(); ++i) q[i] = u(rng);
+    out.push_back(tip_of(chain, q.data(), ws));
+  }
+  return out;
+}
+
+// KDL's FK must equal ours on random poses, or the kdl_lma row would not be the same problem.
+void check_kdl_matches(int n, bool planar) {
+  const Chain chain = make_hinge_chain(n, planar);
+  const KDL::Chain kchain = make_kdl_chain(n, planar);
+  KDL::ChainFkSolverPos_recursive fk(kchain);
+  ikchain::Workspace ws(chain, 1);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-kPi, kPi);
+  Eigen::VectorXd q(n);
+  KDL::JntArray kq(n);
+  for (int t = 0; t < 20; ++t) {
+    for (int i = 0; i < n; ++i) kq(i) = q[i] = u(rng);
+    KDL::Frame f;
+    fk.JntToCart(kq, f);
+    const glm::dvec3 ours = tip_of(chain, q.data(), ws);
+    const double d = glm::length(ours - glm::dvec3(f.p.x(), f.p.y(), f.p.z()));
+    if (!(d < 1e-9 * n)) {
+      std::fprintf(stderr, "KDL and ikchain FK differ by %g on the %d-joint chain: not the same chain\n", d, n);
+      std::exit(3);
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------ solvers
+
+struct SolverSpec {
+  const char* name;
+  bool is_kdl;
+  SolverKind kind;
+  int max_iterations;
+};
+
+// Iteration budgets: 100 for the Newton-like methods (pinv, DLS, BFGS, KDL's LMA gets its default
+// 500), 500 sweeps for CCD and FABRIK, whose linear convergence needs many more (cheaper) steps.
+std::vector<SolverSpec> solver_specs() {
+  return {
+      {"two_bone", false, SolverKind::kTwoBone, 1},
+      {"ccd", false, SolverKind::kCCD, 500},
+      {"fabrik", false, SolverKind::kFABRIK, 500},
+      {"jacobian_pinv", false, SolverKind::kJacobianPinv, 100},
+      {"dls", false, SolverKind::kDLS, 100},
+      {"bfgs", false, SolverKind::kBFGS, 100},
+      {kKdlName, true, SolverKind::kDLS, kKdlMaxIterations},
+  };
+}
+
+// KDL's return codes in our result vocabulary (strError() gives whole sentences).
+const char* kdl_reason(int rc) {
+  switch (rc) {
+    case KDL::SolverI::E_NOERROR: return "converged";
+    case KDL::SolverI::E_MAX_ITERATIONS_EXCEEDED: return "max_iterations";
+    case KDL::ChainIkSolverPos_LMA::E_GRADIENT_JOINTS_TOO_SMALL: return "gradient_too_small";
+    case KDL::ChainIkSolverPos_LMA::E_INCREMENT_JOINTS_TOO_SMALL: return "increment_too_small";
+    default: return "kdl_error";
+  }
+}
+
+// One solve: the outcome a caller sees, with the distance measured by our own FK.
+struct Outcome {
+  double us = 0.0;
+  int iterations = 0;
+  double distance = 0.0;
+  std::string reason;
+};
+
+// Runs one solver on one chain; owns the workspace / KDL solver so a solve allocates nothing.
+class Runner {
+ public:
+  Runner(const SolverSpec& spec, int n, bool planar)
+      : spec_(spec),
+        chain_(make_hinge_chain(n, planar)),
+        kchain_(make_kdl_chain(n, planar)),
+        ws_(chain_, 1),
+        fk_ws_(chain_, 1),
+        params_(Eigen::VectorXd::Zero(chain_.dof_count())),
+        kq_init_(n),
+        kq_out_(n) {
+    options_.warm_start = false;
+    options_.position_tolerance = kRelTolerance * chain_.total_length();
+    options_.max_iterations = spec.max_iterations;
+    if (spec.is_kdl) make_kdl(spec.max_iterations);
+  }
+
+  const Chain& chain() const { return chain_; }
+  double tolerance() const { return options_.position_tolerance; }
+
+  // Budget override (convergence traces) and start pose (precision case: warm start from it).
+  void set_max_iterations(int k) {
+    options_.max_iterations = k;
+    if (spec_.is_kdl) make_kdl(k);
+  }
+  void set_start(const Eigen::VectorXd& start) {
+    start_ = start;
+    options_.warm_start = true;
+  }
+
+  Outcome solve(const glm::dvec3& target) {
+    Outcome out;
+    if (spec_.is_kdl) {
+      for (int i = 0; i < chain_.dof_count(); ++i) kq_init_(i) = start_.size() ? start_[i] : 0.0;
+      const KDL::Frame goal(KDL::Vector(target.x, target.y, target.z));
+      const Clock::time_point t0 = Clock::now();
+      const int rc = kdl_->CartToJnt(kq_init_, goal, kq_out_);
+      const Clock::time_point t1 = Clock::now();
+      out.us = std::chrono::duration<double, std::micro>(t1 - t0).count();
+      out.iterations = kdl_->lastNrOfIter;
+      out.reason = kdl_reason(rc);
+      for (int i = 0; i < chain_.dof_count(); ++i) params_[i] = kq_out_(i);
+    } else {
+      if (start_.size()) params_ = start_;
+      const ikchain::Goal goal = ikchain::Goal::position(target);
+      const Clock::time_point t0 = Clock::now();
+      const ikchain::SolveResult r =
+          ikchain::solve(spec_.kind, chain_, ikchain::Span<const ikchain::Goal>(&goal, 1), options_, ws_, params_);
+      const Clock::time_point t1 = Clock::now();
+      out.us = std::chrono::duration<double, std::micro>(t1 - t0).count();
+      out.iterations = r.iterations;
+      out.reason = ikchain::to_string(r.reason);
+    }
+    out.distance = glm::length(tip_of(chain_, params_.data(), fk_ws_) - target);
+    if (!std::isfinite(out.distance)) out.distance = INFINITY;
+    return out;
+  }
+
+ private:
+  void make_kdl(int max_iterations) {
+    // Position only: weights L = (1,1,1,0,0,0). KDL's stop test is |L .* dx| < eps on the weighted
+    // Cartesian error, i.e. the tip distance here, so eps = our success tolerance.
+    Eigen::Matrix<double, 6, 1> weights;
+    weights << 1, 1, 1, 0, 0, 0;
+    kdl_.reset(new KDL::ChainIkSolverPos_LMA(kchain_, weights, options_.position_tolerance, max_iterations));
+  }
+
+  SolverSpec spec_;
+  Chain chain_;
+  KDL::Chain kchain_;  // must outlive kdl_ (the solver keeps a reference)
+  ikchain::SolverOptions options_;
+  ikchain::Workspace ws_;
+  ikchain::Workspace fk_ws_;
+  Eigen::VectorXd params_;
+  Eigen::VectorXd start_;
+  KDL::JntArray kq_init_;
+  KDL::JntArray kq_out_;
+  std::unique_ptr<KDL::ChainIkSolverPos_LMA> kdl_;
+};
+
+// ------------------------------------------------------------------------------------ JSON
+
+std::string json_number(double v, const char* fmt = "%.6g") {
+  if (!std::isfinite(v)) return "null";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), fmt, v);
+  return buf;
+}
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+bool write_file(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f) {
+    std::fprintf(stderr, "cannot write %s\n", path.c_str());
+    return false;
+  }
+  return true;
+}
+
+std::string read_loadavg() {
+  std::string load = "unknown";
+  std::ifstream loadavg("/proc/loadavg");
+  std::getline(loadavg, load);
+  return load;
+}
+
+// The machine's load when the run started (other jobs on a shared machine inflate the times).
+const std::string& start_loadavg() {
+  static const std::string load = read_loadavg();
+  return load;
+}
+
+std::string meta_json(bool quick) {
+  std::string cpu = "unknown";
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);) {
+    if (line.rfind("model name", 0) == 0) {
+      cpu = line.substr(line.find(':') + 2);
+      break;
+    }
+  }
+  char date[32];
+  const std::time_t now = std::time(nullptr);
+  std::strftime(date, sizeof(date), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  std::string s = "{";
+  s += "\"date\": " + json_string(date);
+  s += ", \"cpu\": " + json_string(cpu);
+  s += ", \"loadavg_at_start\": " + json_string(start_loadavg());
+  s += ", \"loadavg_at_write\": " + json_string(read_loadavg());
+  s += ", \"compiler\": " + json_string(__VERSION__);
+  s += ", \"flags\": \"-O2 -DNDEBUG\"";
+  s += ", \"quick\": " + std::string(quick ? "true" : "false");
+  s += ", \"chain\": \"n hinges alternating z/y, unit links along +Y, tip 1 beyond the last joint (L = n)\"";
+  s += ", \"success\": \"own-FK tip distance <= 1e-5 * L\"";
+  s += ", \"start\": \"rest pose (warm_start = false; KDL: q_init = 0)\"";
+  s += ", \"max_iterations\": {";
+  bool first = true;
+  for (const SolverSpec& sp : solver_specs()) {
+    s += (first ? "" : ", ") + json_string(sp.name) + ": " + std::to_string(sp.max_iterations);
+    first = false;
+  }
+  s += "}}";
+  return s;
+}
+
+// ------------------------------------------------------------------------------------ core.json
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const double pos = q * (v.size() - 1);
+  const size_t lo = static_cast<size_t>(pos);
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (pos - lo) * (v[hi] - v[lo]);
+}
+
+// Trials per chain length: many for the cheap small chains, fewer for the long ones. A cell also
+// stops after kCellSeconds (with at least kMinTrials) so the whole run stays well under 3 minutes
+// on a 2-core machine whatever the solvers cost; the record states the trials actually run.
+int max_trials(int n, bool quick) {
+  const int t = n <= 5 ? 5000 : n <= 10 ? 3000 : n <= 20 ? 2000 : n <= 50 ? 1000 : 500;
+  return quick ? std::max(10, t / 100) : t;
+}
+constexpr double kCellSeconds = 1.5;
+constexpr double kWarmupSeconds = 0.2;
+constexpr int kMinTrials = 30;
+
+std::string run_cell(const SolverSpec& spec, int n, const std::vector<glm::dvec3>& targets, bool quick) {
+  Runner runner(spec, n, false);
+  const int trials_wanted = std::min<int>(max_trials(n, quick), targets.size());
+
+  // Warm-up: caches, branch predictors, CPU frequency; results discarded.
+  const Clock::time_point warm_start = Clock::now();
+  for (int t = 0; t < std::min(trials_wanted, 50); ++t) {
+    runner.solve(targets[t]);
+    if (std::chrono::duration<double>(Clock::now() - warm_start).count() > kWarmupSeconds) break;
+  }
+
+  std::vector<double> us, iterations, distances;
+  std::map<std::string, int> reasons;
+  double sum_us = 0.0, sum_iterations = 0.0;
+  int successes = 0;
+  const Clock::time_point cell_start = Clock::now();
+  for (int t = 0; t < trials_wanted; ++t) {
+    const Outcome o = runner.solve(targets[t]);
+    us.push_back(o.us);
+    iterations.push_back(o.iterations);
+    distances.push_back(o.distance);
+    sum_us += o.us;
+    sum_iterations += o.iterations;
+    if (o.distance <= runner.tolerance()) ++successes;
+    ++reasons[o.reason];
+    if (t + 1 >= kMinTrials &&
+        std::chrono::duration<double>(Clock::now() - cell_start).count() > kCellSeconds)
+      break;
+  }
+  const int trials = static_cast<int>(us.size());
+  std::string s = "{";
+  s += "\"solver\": " + json_string(spec.name);
+  s += ", \"joints\": " + std::to_string(n);
+  s += ", \"trials\": " + std::to_string(trials);
+  s += ", \"max_iterations\": " + std::to_string(spec.max_iterations);
+  s += ", \"success_rate\": " + json_number(static_cast<double>(successes) / trials, "%.4f");
+  s += ", \"median_us\": " + json_number(quantile(us, 0.5), "%.4g");
+  s += ", \"p90_us\": " + json_number(quantile(us, 0.9), "%.4g");
+  s += ", \"median_iterations\": " + json_number(quantile(iterations, 0.5), "%.4g");
+  // Mean cost of one iteration: all time over all iterations (fixed per-solve overhead included).
+  s += ", \"us_per_iteration\": " + json_number(sum_iterations > 0 ? sum_us / sum_iterations : NAN, "%.4g");
+  s += ", \"median_final_error\": " + json_number(quantile(distances, 0.5), "%.3e");
+  s += ", \"p90_final_error\": " + json_number(quantile(distances, 0.9), "%.3e");
+  s += ", \"tolerance\": " + json_number(runner.tolerance(), "%.3e");
+  s += ", \"reasons\": {";
+  bool first = true;
+  for (const auto& kv : reasons) {
+    s += (first ? "" : ", ") + json_string(kv.first) + ": " + std::to_string(kv.second);
+    first = false;
+  }
+  s += "}}";
+  std::fprintf(stderr, "  %-14s n=%-3d trials=%-5d success=%6.1f%%  median=%9.2f us  iters=%g\n", spec.name, n,
+               trials, 100.0 * successes / trials, quantile(us, 0.5), quantile(iterations, 0.5));
+  return s;
+}
+
+// The shared building blocks every solver iteration uses, timed alone: one forward_kinematics()
+// pass, and FK + compute_dof_axes() + compute_jacobian() for one position goal. A yardstick for
+// us_per_iteration (how many FK passes an iteration costs) and for the dispatcher's fixed cost.
+std::string run_baseline(int n) {
+  const Chain chain = make_hinge_chain(n);
+  ikchain::Workspace ws(chain, 1);
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<double> u(-kPi, kPi);
+  Eigen::VectorXd q(n);
+  for (int i = 0; i < n; ++i) q[i] = u(rng);
+  const ikchain::Goal goal = ikchain::Goal::position(glm::dvec3(0.5, 0.5, 0.5));
+  const ikchain::Span<const ikchain::Goal> goals(&goal, 1);
+  auto time_us = [&](auto&& body) {
+    const int reps = std::max(200, 200000 / n);
+    for (int r = 0; r < reps / 10; ++r) body();  // warm-up
+    std::vector<double> batches;
+    for (int b = 0; b < 9; ++b) {  // median of 9 batches, each timing reps/9 calls
+      const Clock::time_point t0 = Clock::now();
+      for (int r = 0; r < reps / 9; ++r) body();
+      batches.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count() / (reps / 9));
+    }
+    return quantile(batches, 0.5);
+  };
+  volatile double sink = 0.0;
+  const double fk_us = time_us([&] {
+    ikchain::forward_kinematics(chain, q.data(), ws);
+    sink = sink + ws.tip.x;
+  });
+  const double jac_us = time_us([&] {
+    ikchain::forward_kinematics(chain, q.data(), ws);
+    ikchain::compute_dof_axes(chain, q.data(), ws);
+    ikchain::compute_jacobian(chain, goals, ws, ws.jacobian.topRows(3));
+    sink = sink + ws.jacobian(0, 0);
+  });
+  std::string s = "{\"joints\": " + std::to_string(n);
+  s += ", \"fk_us\": " + json_number(fk_us, "%.4g");
+  s += ", \"fk_jacobian_us\": " + json_number(jac_us, "%.4g") + "}";
+  return s;
+}
+
+// ------------------------------------------------------------------------------------ precision
+
+// The lecture's precision case: a 10-joint chain, a target 2 units beyond full reach (distance
+// L + 2 from the root, in a generic direction of the xy-plane), from a bent start. The best reach
+// is the stretched chain pointing at the target: distance 2. Two chains: the planar one (all
+// hinges about z; the lecture's figure is planar) and the 3-D benchmark chain, bent out of the
+// plane at the start. (The 3-D chain can only stretch straight within the xy-plane: joint 0 turns
+// about z and the y-hinges twist about their own straight bones, so a target direction with a z
+// component would make the best reach worse than 2; hence an xy-plane direction for both.)
+std::string run_precision(const SolverSpec& spec, bool planar) {
+  const int n = 10;
+  Runner runner(spec, n, planar);
+  Eigen::VectorXd bent(n);
+  for (int i = 0; i < n; ++i) bent[i] = planar ? 0.35 : (i % 2 == 0 ? 0.35 : -0.25);
+  runner.set_start(bent);
+  const glm::dvec3 direction(std::cos(0.7), std::sin(0.7), 0.0);
+  const double optimal = 2.0;
+  const glm::dvec3 target = runner.chain().root_in_base() + direction * (runner.chain().total_length() + optimal);
+  const Outcome o = runner.solve(target);
+  std::string s = "{";
+  s += "\"solver\": " + json_string(spec.name);
+  s += ", \"chain\": " + json_string(planar ? "planar10" : "hinge10");
+  s += ", \"joints\": 10";
+  s += ", \"distance_to_goal\": " + json_number(o.distance, "%.10g");
+  s += ", \"optimal\": " + json_number(optimal);
+  s += ", \"excess\": " + json_number(o.distance - optimal, "%.3e");
+  s += ", \"reason\": " + json_string(o.reason);
+  s += ", \"iterations\": " + std::to_string(o.iterations);
+  s += ", \"max_iterations\": " + std::to_string(spec.max_iterations);
+  s += "}";
+  return s;
+}
+
+// ------------------------------------------------------------------------------------ convergence
+
+// Error after k iterations for k = 1..K: the solver is run afresh from the rest pose with
+// max_iterations = k (simple and honest: no instrumentation inside the solvers). The trace stops
+// once a run ends before its budget (the solver stopped on its own: converged or stalled).
+std::string run_convergence(const SolverSpec& spec, const glm::dvec3& target, int max_k) {
+  const int n = 10;
+  Runner runner(spec, n, false);
+  std::string errors;
+  std::string reason = "budget";
+  ikchain::Workspace ws(runner.chain(), 1);
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(n);
+  errors = json_number(glm::length(tip_of(runner.chain(), rest.data(), ws) - target), "%.6e");  // k = 0
+  for (int k = 1; k <= max_k; ++k) {
+    runner.set_max_iterations(k);
+    const Outcome o = runner.solve(target);
+    errors += ", " + json_number(o.distance, "%.6e");
+    if (o.iterations < k) {
+      reason = o.reason;
+      break;
+    }
+  }
+  std::string s = "{";
+  s += "\"solver\": " + json_string(spec.name);
+  s += ", \"joints\": 10";
+  s += ", \"tolerance\": " + json_number(runner.tolerance(), "%.3e");
+  s += ", \"stopped\": " + json_string(reason);
+  s += ", \"errors\": [" + errors + "]";  // errors[k] = distance after a budget of k iterations
+  s += "}";
+  return s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string out_dir = "build/bench";
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--out") && i + 1 < argc) {
+      out_dir = argv[++i];
+    } else if (!std::strcmp(argv[i], "--quick")) {
+      quick = true;
+    } else {
+      std::fprintf(stderr, "usage: %s [--out DIR] [--quick]\n", argv[0]);
+      return 2;
+    }
+  }
+  const Clock::time_point run_start = Clock::now();
+  start_loadavg();
+  const std::vector<int> joint_counts = {2, 3, 5, 7, 10, 15, 20, 30, 50, 70, 100};
+  const std::vector<SolverSpec> specs = solver_specs();
+  for (int n : {2, 10, 100}) {
+    check_kdl_matches(n, false);
+    check_kdl_matches(n, true);
+  }
+
+  // core.json
+  std::string records;
+  for (int n : joint_counts) {
+    const Chain chain = make_hinge_chain(n);
+    // Same targets for every solver at this n (seed = n), the first k of them in a short cell.
+    const std::vector<glm::dvec3> targets = random_targets(chain, max_trials(n, quick), 1000u + n);
+    for (const SolverSpec& spec : specs) {
+      if (!spec.is_kdl && spec.kind == SolverKind::kTwoBone && n != 2) continue;  // exactly 2 joints
+      records += (records.empty() ? "\n  " : ",\n  ") + run_cell(spec, n, targets, quick);
+    }
+  }
+  std::string baseline;
+  for (int n : joint_counts) baseline += (baseline.empty() ? "\n  " : ",\n  ") + run_baseline(n);
+  if (!write_file(out_dir + "/core.json", "{\"meta\": " + meta_json(quick) + ",\n\"records\": [" + records +
+                                              "\n],\n\"baseline\": [" + baseline + "\n]}\n"))
+    return 1;
+
+  // precision.json
+  std::string precision;
+  for (bool planar : {true, false}) {
+    for (const SolverSpec& spec : specs) {
+      if (!spec.is_kdl && spec.kind == SolverKind::kTwoBone) continue;
+      precision += (precision.empty() ? "\n  " : ",\n  ") + run_precision(spec, planar);
+    }
+  }
+  if (!write_file(out_dir + "/precision.json",
+                  "{\"meta\": " + meta_json(quick) +
+                      ",\n\"setup\": \"10 joints, unit links; target at distance L + 2 = 12 from the root along "
+                      "(cos 0.7, sin 0.7, 0); warm start from a bent pose: planar10 all 0.35 rad, hinge10 0.35 (z "
+                      "hinges) / -0.25 (y hinges); per-solver max_iterations as in meta\","
+                      "\n\"lecture\": {\"jacobian_inverse\": 5.85, \"ccd\": 3.37, \"bfgs\": 2.53, \"optimal\": 2},"
+                      "\n\"records\": [" + precision + "\n]}\n"))
+    return 1;
+
+  // convergence.json: one fixed reachable target on the 10-joint chain.
+  const glm::dvec3 target = random_targets(make_hinge_chain(10), 1, 4242u)[0];
+  std::string traces;
+  for (const SolverSpec& spec : specs) {
+    if (!spec.is_kdl && spec.kind == SolverKind::kTwoBone) continue;
+    traces += (traces.empty() ? "\n  " : ",\n  ") + run_convergence(spec, target, std::min(spec.max_iterations, 200));
+  }
+  char target_json[128];
+  std::snprintf(target_json, sizeof(target_json), "[%.9g, %.9g, %.9g]", target.x, target.y, target.z);
+  if (!write_file(out_dir + "/convergence.json", "{\"meta\": " + meta_json(quick) + ",\n\"target\": " +
+                                                     target_json + ",\n\"traces\": [" + traces + "\n]}\n"))
+    return 1;
+
+  std::fprintf(stderr, "benchmark finished in %.1f s\n",
+               std::chrono::duration<double>(Clock::now() - run_start).count());
+  return 0;
+}

@@ -1,0 +1,121 @@
+// Damped least squares / Levenberg-Marquardt.
+//
+// Step: dtheta = J^T (J J^T + mu I)^-1 e  (mu = lambda^2, m^2): the minimiser of
+// |e - J dtheta|^2 + mu |dtheta|^2, which stays bounded where J loses rank (a straight chain, a
+// target behind the root) instead of blowing up like the pseudo-inverse (Wampler 1986; Nakamura &
+// Hanafusa 1986; Buss 2004, sec. 5). The damping adapts with Nielsen's rule (Madsen, Nielsen &
+// Tingleff, "Methods for Non-Linear Least Squares Problems", 2nd ed. 2004, sec. 3.2, Alg. 3.16):
+// a step is accepted only if the cost decreases; then mu *= max(1/3, 1 - (2 rho - 1)^3), where
+// rho = actual / predicted decrease, and nu = 2; else mu *= nu, nu *= 2 and the step is retried
+// from the same linearisation. Good steps drive mu to dls_min_damping, i.e. to Gauss-Newton
+// steps and their quadratic convergence near the solution; bad ones shrink the step towards a
+// short gradient step. So one solve needs few iterations, and each costs one FK (plus one
+// Jacobian when accepted): for one position goal both fused in O(n) with 3x3 algebra
+// (jacobian_common.hpp).
+//
+// Iterations count trials: every evaluated step, accepted or not, is one of max_iterations.
+// Stops: converged; "stalled" when mu reaches dls_max_damping without an acceptable step, or when
+// kStallCount accepted steps in a row improve the cost by less than stall_tolerance (relative) -
+// solve() turns a stall at a best reach into kUnreachable.
+#include <algorithm>
+#include <cmath>
+
+#include "core/kinematics.hpp"
+#include "core/solvers/jacobian_common.hpp"
+#include "core/solvers/solvers.hpp"
+
+namespace ikchain {
+namespace {
+
+// Largest |second-order correction| / |step| applied (Transtrum & Sethna 2012 use a ratio test
+// too; measured on the benchmark chains, 3 beats 0.5-1: fewer iterations, same success rate).
+constexpr double kMaxAccelerationRatio = 3.0;
+
+template <class Model>
+SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOptions& o, Workspace& ws,
+                     Model& model, double* params) {
+  SolverStatus status;
+  const int n = chain.dof_count();
+  ws.step.setZero();  // DOFs beyond the farthest effector never move
+
+  model.evaluate(params);
+  model.accept();
+  if (model.converged(o)) {
+    status.reason = TerminationReason::kConverged;
+    return status;
+  }
+  model.linearize(params);
+  int kicks_left = 2;
+  double best_cost = INFINITY;
+  jacobian::kick_if_stuck(chain, goals, model, ws, params, kicks_left, best_cost);
+
+  double mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
+  double nu = 2.0;
+  int small_improvements = 0;
+  status.reason = TerminationReason::kMaxIterations;
+  for (int it = 1; it <= o.max_iterations; ++it) {
+    status.iterations = it;
+    const double cost = model.cost();
+    const double predicted = model.damped_step(mu, ws.step.data());
+    if (model.has_acceleration()) {
+      // Geodesic acceleration (see SinglePositionModel::acceleration), skipped when the correction
+      // dwarfs the step itself: the quadratic model is not to be trusted that far.
+      const int active = model.active_dofs();
+      const double correction = model.acceleration(ws.step.data(), ws.dof_vec_a.data());
+      if (correction <= kMaxAccelerationRatio * ws.step.head(active).norm())
+        ws.step.head(active) += ws.dof_vec_a.head(active);
+    }
+    jacobian::make_trial(chain, o, params, ws.step.data(), ws);
+    const double trial_cost = model.evaluate(ws.params_trial.data());
+    if (trial_cost < cost) {  // NaN compares false: rejected
+      std::copy(ws.params_trial.data(), ws.params_trial.data() + n, params);
+      model.accept();
+      if (model.converged(o)) {
+        status.reason = TerminationReason::kConverged;
+        break;
+      }
+      const double gain = cost - trial_cost;
+      small_improvements = gain <= o.stall_tolerance * cost ? small_improvements + 1 : 0;
+      if (small_improvements >= jacobian::kStallCount) {
+        status.reason = TerminationReason::kStalled;
+        break;
+      }
+      model.linearize(params);
+      const double rho = predicted > 0.0 ? gain / predicted : 0.0;
+      const double r = 2.0 * rho - 1.0;
+      mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - r * r * r), o.dls_min_damping);
+      nu = 2.0;
+      jacobian::kick_if_stuck(chain, goals, model, ws, params, kicks_left, best_cost);
+    } else {
+      if (mu >= o.dls_max_damping) {
+        status.reason = TerminationReason::kStalled;
+        break;
+      }
+      mu = std::min(mu * nu, o.dls_max_damping);
+      nu *= 2.0;
+    }
+  }
+  if (status.reason != TerminationReason::kConverged) jacobian::keep_best(chain, model, ws, best_cost, params);
+  return status;
+}
+
+}  // namespace
+
+SolverStatus solve_dls(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
+                       double* params) {
+  if (goals.size == 1 && goals[0].kind == GoalKind::kPosition) {
+    jacobian::SinglePositionModel model(chain, goals[0], ws);
+    return run_dls(chain, goals, options, ws, model, params);
+  }
+  return jacobian::solve_dls_generic(chain, goals, options, ws, params);
+}
+
+namespace jacobian {
+SolverStatus solve_dls_generic(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                               Workspace& ws, double* params) {
+  GoalModel model(chain, goals, ws);
+  return run_dls(chain, goals, options, ws, model, params);
+}
+}  // namespace jacobian
+
+}  // namespace ikchain

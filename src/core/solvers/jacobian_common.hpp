@@ -1,0 +1,648 @@
+// Shared machinery of the Jacobian-family solvers (jacobian_pinv.cpp, dls.cpp): the least-squares
+// "models" they step on, and the small dense linear algebra both need.
+//
+// A model owns the problem's shape: it evaluates the weighted residual e (desired - current) of a
+// pose, linearises at the accepted pose (J = d current / d params) and turns the linearisation
+// into steps. Both solvers work with the SVD of J through the eigen-decomposition of its small
+// Gram matrix (J J^T when there are fewer residual rows m than DOFs n, J^T J otherwise):
+//   J J^T = V diag(lambda) V^T,   t = V^T e,
+//   pseudo-inverse step   h = J^T V diag(f) t,  f_i = 1/lambda_i (0 below the singular threshold)
+//   damped step (DLS/LM)  h = J^T V diag(f) t,  f_i = 1/(lambda_i + mu)
+// (Golub & Van Loan, "Matrix Computations", 4th ed., sec. 5.5.4 for the pseudo-inverse, sec. 8.5.2
+// for the cyclic Jacobi eigenvalue method used here; Buss, "Introduction to Inverse Kinematics with
+// Jacobian Transpose, Pseudoinverse and Damped Least Squares methods" (2004), sec. 4-5.)
+//
+// Two models with the same interface:
+//  - SinglePositionModel: one position goal, the common case and the benchmark's. FK, Jacobian and
+//    the 3x3 J J^T are fused into two O(n) passes over the chain, with fixed-size 3x3 algebra; no
+//    n x n matrix and nothing dynamic. Tested to agree with GoalModel (jacobian_pinv_test.cpp).
+//  - GoalModel: any goals, through the generic kinematics.hpp machinery and workspace buffers.
+// Neither allocates: every buffer is the workspace's (see the buffer map at GoalModel).
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "core/kinematics.hpp"
+#include "core/so3.hpp"
+#include "core/solvers/solvers.hpp"
+
+namespace ikchain {
+namespace jacobian {
+
+// Cyclic Jacobi eigenvalue method (Golub & Van Loan, Alg. 8.5.3): diagonalises the symmetric k x k
+// matrix `a` in place (eigenvalues end on its diagonal) and accumulates the eigenvectors as the
+// columns of `v`. Works on fixed-size matrices and on workspace blocks alike; allocates nothing.
+// Jacobi is accurate for small eigenvalues (what decides rank deficiency), and k is small (3 per goal).
+template <typename MatA, typename MatV>
+void jacobi_eigen(MatA& a, MatV& v, int k) {
+  v.setIdentity();
+  for (int sweep = 0; sweep < 60; ++sweep) {
+    double off = 0.0, diag = 0.0;
+    for (int p = 0; p < k; ++p) {
+      diag += a(p, p) * a(p, p);
+      for (int q = p + 1; q < k; ++q) off += a(p, q) * a(p, q);
+    }
+    if (off <= 1e-34 * diag || off == 0.0) return;
+    for (int p = 0; p < k; ++p) {
+      for (int q = p + 1; q < k; ++q) {
+        const double apq = a(p, q);
+        if (apq == 0.0) continue;
+        // Rotation zeroing a(p,q) (Golub & Van Loan, Alg. 8.5.1, sym.schur2).
+        const double tau = (a(q, q) - a(p, p)) / (2.0 * apq);
+        const double t = std::abs(tau) > 1e150 ? 0.5 / tau
+                                              : (tau >= 0.0 ? 1.0 : -1.0) / (std::abs(tau) + std::sqrt(1.0 + tau * tau));
+        const double c = 1.0 / std::sqrt(1.0 + t * t);
+        const double s = t * c;
+        for (int r = 0; r < k; ++r) {
+          const double arp = a(r, p), arq = a(r, q);
+          a(r, p) = c * arp - s * arq;
+          a(r, q) = s * arp + c * arq;
+        }
+        for (int r = 0; r < k; ++r) {
+          const double apr = a(p, r), aqr = a(q, r);
+          a(p, r) = c * apr - s * aqr;
+          a(q, r) = s * apr + c * aqr;
+        }
+        for (int r = 0; r < k; ++r) {
+          const double vrp = v(r, p), vrq = v(r, q);
+          v(r, p) = c * vrp - s * vrq;
+          v(r, q) = s * vrp + c * vrq;
+        }
+      }
+    }
+  }
+}
+
+// sin and cos of x together, for the fused FK's hinge half-angles. libm's sincos is accurate but
+// is a function call with a general argument reduction; this inline version (the fdlibm kernels
+// __kernel_sin/__kernel_cos with a three-part Cody-Waite reduction by pi/2, as in fdlibm's
+// e_rem_pio2.c) is accurate to ~1 ulp for |x| < 1e5 and several times faster. Larger or
+// non-finite x fall back to libm.
+inline void fast_sincos(double x, double& sin_x, double& cos_x) {
+  if (!(std::abs(x) < 1e5)) {
+    sin_x = std::sin(x);
+    cos_x = std::cos(x);
+    return;
+  }
+  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+  constexpr double kPio2_1 = 1.57079632673412561417e+00;   // first 33 bits of pi/2
+  constexpr double kPio2_2 = 6.07710050630396597660e-11;   // next 33 bits
+  constexpr double kPio2_3 = 2.02226624871116645580e-21;   // next 33 bits
+  constexpr double kPio2_3t = 8.47842766036889956997e-32;  // pi/2 - (pio2_1 + pio2_2 + pio2_3)
+  // Nearest multiple of pi/2 (truncating conversion: one instruction, unlike floor without SSE4.1).
+  const long qi = static_cast<long>(x * kTwoOverPi + (x >= 0.0 ? 0.5 : -0.5));
+  const double q = static_cast<double>(qi);
+  // q * pio2_1 and q * pio2_2 are exact (|q| < 2^17, 33-bit constants), so r carries ~100 bits of pi.
+  const double r = ((x - q * kPio2_1) - q * kPio2_2) - (q * kPio2_3 + q * kPio2_3t);
+  const double z = r * r;
+  const double s = r + r * z * (-1.66666666666666324348e-01 +
+                                z * (8.33333333332248946124e-03 +
+                                     z * (-1.98412698298579493134e-04 +
+                                          z * (2.75573137070700676789e-06 +
+                                               z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+  const double c = 1.0 - 0.5 * z +
+                   z * z * (4.16666666666666019037e-02 +
+                            z * (-1.38888888888741095749e-03 +
+                                 z * (2.48015872894767294178e-05 +
+                                      z * (-2.75573143513906633035e-07 +
+                                           z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
+  switch (qi & 3) {
+    case 0: sin_x = s; cos_x = c; break;
+    case 1: sin_x = c; cos_x = -s; break;
+    case 2: sin_x = -s; cos_x = -c; break;
+    default: sin_x = -c; cos_x = s; break;
+  }
+}
+
+// Solves (A) y = b for a symmetric positive definite 3x3 A by LDL^T, unrolled (Eigen's fixed-size
+// LLT is a generic loop with square roots). Pivots that rounding made non-positive are clamped to
+// a tiny positive value: the caller only uses this with a positive damping or a certified rank.
+inline Eigen::Vector3d solve_spd3(const Eigen::Matrix3d& a, const Eigen::Vector3d& b) {
+  constexpr double kTiny = 1e-300;
+  const double d0 = std::max(a(0, 0), kTiny);
+  const double l10 = a(1, 0) / d0, l20 = a(2, 0) / d0;
+  const double d1 = std::max(a(1, 1) - l10 * a(1, 0), kTiny);
+  const double l21 = (a(2, 1) - l20 * a(1, 0)) / d1;
+  const double d2 = std::max(a(2, 2) - l20 * a(2, 0) - l21 * l21 * d1, kTiny);
+  const double z0 = b[0];
+  const double z1 = b[1] - l10 * z0;
+  const double z2 = b[2] - l20 * z0 - l21 * z1;
+  Eigen::Vector3d y;
+  y[2] = z2 / d2;
+  y[1] = z1 / d1 - l21 * y[2];
+  y[0] = z0 / d0 - l10 * y[1] - l20 * y[2];
+  return y;
+}
+
+// Gram eigenvalues below this are rank deficiency. Forming J J^T squares J's condition number, so
+// its eigenvalues carry absolute rounding noise ~ eps * lambda_max: a singular value cannot be
+// resolved below sqrt(noise), whatever pinv_singular_threshold asks for.
+inline double gram_rank_floor(double singular_threshold, double lambda_max) {
+  return std::max(singular_threshold * singular_threshold, 1e-13 * lambda_max);
+}
+
+// Pseudo-inverse filter factor for one Gram eigenvalue.
+inline double pinv_factor(double lambda, double floor) { return lambda > floor ? 1.0 / lambda : 0.0; }
+
+// Number of leading params that move any of the goals' effectors (joints before the farthest
+// effector); the rest are left alone by every step and by the singularity kick.
+inline int active_dof_count(const Chain& chain, Span<const Goal> goals) {
+  int k = 0;
+  for (int i = 0; i < goals.size; ++i) k = std::max(k, resolve_effector(chain, goals[i].effector));
+  return k >= chain.joint_count() ? chain.dof_count() : chain.dof_offset(k);
+}
+
+// A unit quaternion as four scalars, for the fused FK's inner loop.
+struct Quat {
+  double w, x, y, z;
+};
+inline Quat multiply(const Quat& a, const Quat& b) {
+  return Quat{a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+              a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
+}
+// q v q^*, as v + w t + u x t with t = 2 u x v (u = the vector part).
+inline glm::dvec3 rotate(const Quat& q, const glm::dvec3& v) {
+  const double tx = 2.0 * (q.y * v.z - q.z * v.y);
+  const double ty = 2.0 * (q.z * v.x - q.x * v.z);
+  const double tz = 2.0 * (q.x * v.y - q.y * v.x);
+  return glm::dvec3(v.x + q.w * tx + (q.y * tz - q.z * ty), v.y + q.w * ty + (q.z * tx - q.x * tz),
+                    v.z + q.w * tz + (q.x * ty - q.y * tx));
+}
+
+// Sparse cases of the two operations above, for the directions rigs are built from (hinges about a
+// coordinate axis, bones along one axis - Godot's along +Y): a column of q's rotation matrix, or a
+// product with a rotation about a coordinate axis, costs a third of the general formula. The
+// branches depend only on the chain, so they predict perfectly.
+__attribute__((always_inline)) inline glm::dvec3 rotate_sparse(const Quat& q, const glm::dvec3& v) {
+  if (v.x == 0.0 && v.z == 0.0)  // along y: v.y * column y of R(q)
+    return v.y * glm::dvec3(2.0 * (q.x * q.y - q.w * q.z), 1.0 - 2.0 * (q.x * q.x + q.z * q.z),
+                            2.0 * (q.y * q.z + q.w * q.x));
+  if (v.x == 0.0 && v.y == 0.0)  // along z
+    return v.z * glm::dvec3(2.0 * (q.x * q.z + q.w * q.y), 2.0 * (q.y * q.z - q.w * q.x),
+                            1.0 - 2.0 * (q.x * q.x + q.y * q.y));
+  if (v.y == 0.0 && v.z == 0.0)  // along x
+    return v.x * glm::dvec3(1.0 - 2.0 * (q.y * q.y + q.z * q.z), 2.0 * (q.x * q.y + q.w * q.z),
+                            2.0 * (q.x * q.z - q.w * q.y));
+  return rotate(q, v);
+}
+// q * (cos(t/2), sin(t/2) * axis) given c = cos(t/2), s = sin(t/2), axis a unit vector.
+inline Quat multiply_axis_angle(const Quat& a, const glm::dvec3& axis, double c, double s) {
+  if (axis.x == 0.0 && axis.y == 0.0) {  // about +-z
+    s *= axis.z;
+    return Quat{a.w * c - a.z * s, a.x * c + a.y * s, a.y * c - a.x * s, a.z * c + a.w * s};
+  }
+  if (axis.x == 0.0 && axis.z == 0.0) {  // about +-y
+    s *= axis.y;
+    return Quat{a.w * c - a.y * s, a.x * c - a.z * s, a.y * c + a.w * s, a.z * c + a.x * s};
+  }
+  if (axis.y == 0.0 && axis.z == 0.0) {  // about +-x
+    s *= axis.x;
+    return Quat{a.w * c - a.x * s, a.x * c + a.w * s, a.y * c + a.z * s, a.z * c - a.y * s};
+  }
+  return multiply(a, Quat{c, s * axis.x, s * axis.y, s * axis.z});
+}
+
+// ------------------------------------------------------------------------------------------------
+// One position goal: fused FK + Jacobian + 3x3 Gram matrix, O(n) per iteration.
+class SinglePositionModel {
+ public:
+  SinglePositionModel(const Chain& chain, const Goal& goal, Workspace& ws)
+      : chain_(chain),
+        ws_(ws),
+        effector_(resolve_effector(chain, goal.effector)),
+        active_dofs_(effector_ >= chain.joint_count() ? chain.dof_count() : chain.dof_offset(effector_)),
+        target_(goal.target_position),
+        sqrt_weight_(std::sqrt(goal.weight)) {
+    for (int i = 0; i < effector_; ++i) all_hinges_ = all_hinges_ && chain.joint_type(i) == JointType::kHinge;
+  }
+
+  int active_dofs() const { return active_dofs_; }
+  // The second-order correction's formula is exact for hinges only; measured on ball chains it
+  // costs iterations, so it is used only when every joint moving the effector is a hinge.
+  bool has_acceleration() const { return all_hinges_; }
+
+  // Forward kinematics of joints 0..effector-1: joint origins and world DOF axes into the workspace
+  // (the same values forward_kinematics + compute_dof_axes give), the weighted residual into the
+  // trial slot. Returns the cost 0.5 * w * |target - effector|^2.
+  double evaluate(const double* params) {
+    // Plain scalar quaternion arithmetic: about half the instructions of the glm expressions.
+    Quat q{1.0, 0.0, 0.0, 0.0};  // orientation Q_{i-1}
+    glm::dvec3 origin(0.0);
+    for (int i = 0; i < effector_; ++i) {
+      origin += rotate_sparse(q, chain_.offset_translation(i));
+      const glm::dquat& rest = chain_.rest_rotation(i);
+      // Identity rest rotations (most rigs' hinge chains) skip a quaternion product.
+      const Quat pre = rest.w == 1.0 ? q : multiply(q, Quat{rest.w, rest.x, rest.y, rest.z});
+      const int o = chain_.dof_offset(i);
+      if (chain_.joint_type(i) == JointType::kHinge) {
+        const glm::dvec3& axis = chain_.hinge_axis(i);
+        double s, c;
+        fast_sincos(0.5 * params[o], s, c);
+        q = multiply_axis_angle(pre, axis, c, s);
+        ws_.dof_axes[o] = rotate_sparse(pre, axis);
+      } else {
+        const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
+        const glm::dquat motion = so3::exp(r);
+        q = multiply(pre, Quat{motion.w, motion.x, motion.y, motion.z});
+        const glm::dmat3 jl = so3::left_jacobian(r);
+        for (int d = 0; d < 3; ++d) ws_.dof_axes[o + d] = rotate(pre, jl[d]);
+      }
+      // No per-joint renormalisation (unlike forward_kinematics): products of unit quaternions
+      // drift by ~1e-16 per joint, far below any tolerance even at 100 joints.
+      ws_.joint_origins[i] = origin;
+    }
+    const glm::dvec3& next = effector_ < chain_.joint_count() ? chain_.offset_translation(effector_)
+                                                              : chain_.tip_offset();
+    effector_trial_ = origin + rotate_sparse(q, next);
+    const glm::dvec3 d = target_ - effector_trial_;
+    e_trial_ = Eigen::Vector3d(d.x, d.y, d.z) * sqrt_weight_;
+    cost_trial_ = 0.5 * e_trial_.squaredNorm();
+    return cost_trial_;
+  }
+
+  void accept() {
+    e_ = e_trial_;
+    effector_position_ = effector_trial_;
+    distance_ = std::sqrt(2.0 * cost_trial_) / sqrt_weight_;
+    cost_ = cost_trial_;
+  }
+  double cost() const { return cost_; }
+  bool converged(const SolverOptions& o) const { return distance_ <= o.position_tolerance; }
+  double residual_norm() const { return e_.norm(); }
+
+  // J at the accepted pose (the last evaluate()d pose must be the accepted one): column j =
+  // sqrt(w) * axis_j x (effector - o_joint(j)), stored in the top 3 rows of ws.jacobian, and the
+  // Gram matrix J J^T (3x3) accumulated in the same pass.
+  void linearize(const double* /*params*/) {
+    double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0;
+    double* col = ws_.jacobian.data();
+    const Eigen::Index stride = ws_.jacobian.rows();
+    for (int i = 0; i < effector_; ++i) {
+      const glm::dvec3 arm = (effector_position_ - ws_.joint_origins[i]) * sqrt_weight_;
+      const int o = chain_.dof_offset(i);
+      const int cnt = chain_.dof_count_of(i);
+      for (int d = 0; d < cnt; ++d) {
+        const glm::dvec3 c = glm::cross(ws_.dof_axes[o + d], arm);
+        double* cj = col + stride * (o + d);
+        cj[0] = c.x;
+        cj[1] = c.y;
+        cj[2] = c.z;
+        a00 += c.x * c.x;
+        a01 += c.x * c.y;
+        a02 += c.x * c.z;
+        a11 += c.y * c.y;
+        a12 += c.y * c.z;
+        a22 += c.z * c.z;
+      }
+    }
+    gram_ << a00, a01, a02, a01, a11, a12, a02, a12, a22;
+    decomposed_ = false;
+  }
+
+  // |J^T e|^2 = e^T (J J^T) e: zero at a stationary point (e.g. a straight chain pulled along itself).
+  double gradient_norm2() const { return e_.dot(gram_ * e_); }
+  // sqrt(trace(J J^T)) = |J|_F, the scale gradient_norm2 is judged against.
+  double jacobian_norm() const { return std::sqrt(std::max(gram_.trace(), 0.0)); }
+
+  // Damped least squares step h = J^T (J J^T + mu I)^-1 e into step[0..active). Returns the
+  // decrease of the linear model, 0.5 (|e|^2 - |e - J h|^2) = 0.5 (|e|^2 - mu^2 |y|^2).
+  double damped_step(double mu, double* step) {
+    Eigen::Matrix3d m = gram_;
+    m.diagonal().array() += mu;
+    const Eigen::Vector3d y = solve_spd3(m, e_);
+    apply_transpose(y, step);
+    damped_ = m;
+    achieved_ = e_ - mu * y;  // J h
+    return 0.5 * (e_.squaredNorm() - mu * mu * y.squaredNorm());
+  }
+
+  // Second-order ("geodesic acceleration") correction of the last damped_step h (Transtrum &
+  // Sethna, "Improvements to the Levenberg-Marquardt algorithm for nonlinear least-squares
+  // minimization", 2012): the effector's second derivative along h, p'' = d^2 p(theta + t h)/dt^2,
+  // is exact for rotational joints in O(n),
+  //   p'' = sum_k h_k [ W_k x c_k + a_k x (J h - V_k) ],
+  //   W_k = sum_{j<k} h_j a_j (angular velocity of joint k's frame), V_k = sum_{j<k} h_j c_j,
+  // c_k = a_k x (p - o_k), for hinge chains (see has_acceleration). The correction h2 = -(J^T J + mu)^-1 J^T p''/2
+  // cancels the curvature of the arcs the effector moves on, which is what makes a Gauss-Newton
+  // step fall short far from the goal. Writes h2 into `correction`; returns |h2|.
+  double acceleration(const double* h, double* correction) const {
+    const double inv_sw = 1.0 / sqrt_weight_;
+    const glm::dvec3 jh(achieved_[0] * inv_sw, achieved_[1] * inv_sw, achieved_[2] * inv_sw);
+    glm::dvec3 w(0.0), v(0.0), pdd(0.0);
+    const double* col = ws_.jacobian.data();
+    const Eigen::Index stride = ws_.jacobian.rows();
+    for (int j = 0; j < active_dofs_; ++j) {
+      const double* cj = col + stride * j;
+      const glm::dvec3 c(cj[0] * inv_sw, cj[1] * inv_sw, cj[2] * inv_sw);
+      const glm::dvec3& a = ws_.dof_axes[j];
+      pdd += h[j] * (glm::cross(w, c) + glm::cross(a, jh - v));
+      w += h[j] * a;
+      v += h[j] * c;
+    }
+    const Eigen::Vector3d rhs = -0.5 * sqrt_weight_ * Eigen::Vector3d(pdd.x, pdd.y, pdd.z);
+    const Eigen::Vector3d y = solve_spd3(damped_, rhs);
+    apply_transpose(y, correction);
+    double n2 = 0.0;
+    for (int j = 0; j < active_dofs_; ++j) n2 += correction[j] * correction[j];
+    return std::sqrt(n2);
+  }
+
+  // Pseudo-inverse step h = J+ e into step[0..active); remembers the change it predicts, J h
+  // (= the part of e in J's range). Returns |(I - J J+) e|, the part no step can achieve.
+  double pinv_step(double singular_threshold, double* step) {
+    // Far from singular (certified by lambda_min >= 4 det / trace^2, since the two larger
+    // eigenvalues multiply to at most trace^2 / 4) an LDL^T solve is exact and cheap.
+    const double tr = gram_.trace();
+    const double floor = gram_rank_floor(singular_threshold, tr);
+    Eigen::Vector3d y;
+    if (tr > 0.0 && 4.0 * gram_.determinant() / (tr * tr) > 100.0 * floor) {
+      y = solve_spd3(gram_, e_);
+      predicted_change_ = e_;
+    } else {
+      if (!decomposed_) {
+        eigenvalues_matrix_ = gram_;
+        jacobi_eigen(eigenvalues_matrix_, eigenvectors_, 3);
+        decomposed_ = true;
+      }
+      const Eigen::Vector3d t = eigenvectors_.transpose() * e_;
+      Eigen::Vector3d ft, kept;
+      for (int i = 0; i < 3; ++i) {
+        const double f = pinv_factor(eigenvalues_matrix_(i, i), floor);
+        ft[i] = f * t[i];
+        kept[i] = f > 0.0 ? t[i] : 0.0;
+      }
+      y = eigenvectors_ * ft;
+      predicted_change_ = eigenvectors_ * kept;
+    }
+    apply_transpose(y, step);
+    return (e_ - predicted_change_).norm();
+  }
+  double predicted_change_norm() const { return predicted_change_.norm(); }
+  // |scale * J h - achieved change|: the part of the scaled step's promise the trial pose missed
+  // (achieved change = e_accepted - e_trial).
+  double missed_change(double scale) const {
+    return (scale * predicted_change_ - (e_ - e_trial_)).norm();
+  }
+
+ private:
+  void apply_transpose(const Eigen::Vector3d& y, double* step) const {
+    const double* col = ws_.jacobian.data();
+    const Eigen::Index stride = ws_.jacobian.rows();
+    for (int j = 0; j < active_dofs_; ++j) {
+      const double* cj = col + stride * j;
+      step[j] = cj[0] * y[0] + cj[1] * y[1] + cj[2] * y[2];
+    }
+  }
+
+  const Chain& chain_;
+  Workspace& ws_;
+  int effector_;
+  int active_dofs_;
+  glm::dvec3 target_;
+  double sqrt_weight_;
+  bool all_hinges_ = true;
+  glm::dvec3 effector_position_{0.0}, effector_trial_{0.0};
+  double distance_ = 0.0;
+  double cost_ = 0.0, cost_trial_ = 0.0;
+  Eigen::Vector3d e_ = Eigen::Vector3d::Zero(), e_trial_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d gram_ = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d damped_ = Eigen::Matrix3d::Identity();  // J J^T + mu I of the last damped_step
+  Eigen::Vector3d achieved_ = Eigen::Vector3d::Zero();      // J h of the last damped_step
+  Eigen::Matrix3d eigenvalues_matrix_, eigenvectors_;
+  Eigen::Vector3d predicted_change_ = Eigen::Vector3d::Zero();
+  bool decomposed_ = false;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Any goals, through kinematics.hpp. m = 3 * goals rows, n = dof_count, k = min(m, n).
+// Workspace buffers:
+//   residual / residual_trial (m)   accepted / trial residual (swapped on accept, no copy)
+//   jacobian (m x n)                J at the accepted pose
+//   m < n ("row form", J J^T):      goal_square k x k -> eigenvalues on its diagonal,
+//                                   dof_square k x k eigenvectors V, dof_vec_a t = V^T e,
+//                                   dof_vec_b y = V f t (then step = J^T y)
+//   m >= n ("column form", J^T J):  dof_square k x k -> eigenvalues, goal_square k x k eigenvectors
+//                                   W, gradient g = J^T e, dof_vec_a t = W^T g, step = W f t
+//   goal_vec (m)                    pinv: the predicted change J h
+class GoalModel {
+ public:
+  GoalModel(const Chain& chain, Span<const Goal> goals, Workspace& ws)
+      : chain_(chain),
+        goals_(goals),
+        ws_(ws),
+        m_(3 * goals.size),
+        n_(chain.dof_count()),
+        k_(std::min(m_, n_)),
+        row_form_(m_ < n_),
+        active_dofs_(active_dof_count(chain, goals)) {}
+
+  int active_dofs() const { return active_dofs_; }
+
+  double evaluate(const double* params) {
+    forward_kinematics(chain_, params, ws_);
+    errors_trial_ = evaluate_goals(chain_, goals_, ws_, ws_.residual_trial.head(m_));
+    return errors_trial_.cost;
+  }
+  void accept() {
+    ws_.residual.swap(ws_.residual_trial);  // swaps the buffers' pointers: no copy, no allocation
+    errors_ = errors_trial_;
+  }
+  double cost() const { return errors_.cost; }
+  bool converged(const SolverOptions& o) const { return errors_.within(o); }
+  double residual_norm() const { return ws_.residual.head(m_).norm(); }
+
+  void linearize(const double* params) {
+    compute_dof_axes(chain_, params, ws_);
+    auto J = ws_.jacobian.topRows(m_);
+    compute_jacobian(chain_, goals_, ws_, J);
+    auto e = ws_.residual.head(m_);
+    auto t = ws_.dof_vec_a.head(k_);
+    if (row_form_) {
+      auto A = ws_.goal_square.topLeftCorner(k_, k_);
+      auto V = ws_.dof_square.topLeftCorner(k_, k_);
+      A.noalias() = J * J.transpose();
+      trace_ = A.trace();
+      jacobi_eigen(A, V, k_);
+      t.noalias() = V.transpose() * e;
+      gradient_norm2_ = 0.0;
+      for (int i = 0; i < k_; ++i) gradient_norm2_ += std::max(A(i, i), 0.0) * t[i] * t[i];
+    } else {
+      auto A = ws_.dof_square.topLeftCorner(k_, k_);
+      auto W = ws_.goal_square.topLeftCorner(k_, k_);
+      A.noalias() = J.transpose() * J;
+      trace_ = A.trace();
+      jacobi_eigen(A, W, k_);
+      ws_.gradient.noalias() = J.transpose() * e;
+      gradient_norm2_ = ws_.gradient.squaredNorm();
+      t.noalias() = W.transpose() * ws_.gradient;
+    }
+  }
+
+  double gradient_norm2() const { return gradient_norm2_; }
+  double jacobian_norm() const { return std::sqrt(std::max(trace_, 0.0)); }
+  // No second-order correction for general goals (orientation rows have other curvature).
+  bool has_acceleration() const { return false; }
+  double acceleration(const double*, double*) const { return 0.0; }
+
+  double damped_step(double mu, double* step_out) {
+    return step_with([mu](double lambda) { return 1.0 / (lambda + mu); }, step_out, nullptr);
+  }
+
+  double pinv_step(double singular_threshold, double* step_out) {
+    const double floor = gram_rank_floor(singular_threshold, trace_);
+    double unreachable = 0.0;
+    step_with([floor](double lambda) { return pinv_factor(lambda, floor); }, step_out, &unreachable);
+    return unreachable;
+  }
+  double predicted_change_norm() const { return ws_.goal_vec.head(m_).norm(); }
+  double missed_change(double scale) const {
+    double s = 0.0;
+    for (int i = 0; i < m_; ++i) {
+      const double d = scale * ws_.goal_vec[i] - (ws_.residual[i] - ws_.residual_trial[i]);
+      s += d * d;
+    }
+    return std::sqrt(s);
+  }
+
+ private:
+  // Step h = J^+_f e for the filter f(lambda) into step_out (n entries). Returns the linear model's
+  // decrease 0.5 (|e|^2 - |e - J h|^2). With `pinv_unreachable` set (pseudo-inverse), also stores
+  // the predicted change J h in goal_vec and returns |e - J h| through the pointer.
+  template <typename Filter>
+  double step_with(Filter filter, double* step_out, double* pinv_unreachable) {
+    auto J = ws_.jacobian.topRows(m_);
+    auto t = ws_.dof_vec_a.head(k_);
+    Eigen::Map<Eigen::VectorXd> h(step_out, n_);
+    double decrease = 0.0;
+    if (row_form_) {
+      const auto A = ws_.goal_square.topLeftCorner(k_, k_);
+      const auto V = ws_.dof_square.topLeftCorner(k_, k_);
+      auto y = ws_.dof_vec_b.head(k_);
+      double missed2 = 0.0;
+      for (int i = 0; i < k_; ++i) {
+        const double lambda = std::max(A(i, i), 0.0);
+        const double f = filter(lambda);
+        y[i] = f * t[i];
+        const double r = 1.0 - lambda * f;  // e - J h = V diag(1 - lambda f) t
+        decrease += 0.5 * t[i] * t[i] * (1.0 - r * r);
+        missed2 += r * r * t[i] * t[i];
+      }
+      ws_.gradient.head(k_) = y;  // V * y must not alias y
+      y.noalias() = V * ws_.gradient.head(k_);
+      h.noalias() = J.transpose() * y;
+      if (pinv_unreachable) {
+        ws_.goal_vec.head(m_).noalias() = J * h;
+        *pinv_unreachable = std::sqrt(missed2);
+      }
+    } else {
+      const auto A = ws_.dof_square.topLeftCorner(k_, k_);
+      const auto W = ws_.goal_square.topLeftCorner(k_, k_);
+      auto ft = ws_.dof_vec_b.head(k_);
+      for (int i = 0; i < k_; ++i) {
+        const double lambda = std::max(A(i, i), 0.0);
+        const double f = filter(lambda);
+        ft[i] = f * t[i];
+        decrease += f * t[i] * t[i] * (1.0 - 0.5 * lambda * f);
+      }
+      h.noalias() = W * ft;
+      if (pinv_unreachable) {
+        ws_.goal_vec.head(m_).noalias() = J * h;
+        *pinv_unreachable = (ws_.residual.head(m_) - ws_.goal_vec.head(m_)).norm();
+      }
+    }
+    return decrease;
+  }
+
+  const Chain& chain_;
+  Span<const Goal> goals_;
+  Workspace& ws_;
+  int m_, n_, k_;
+  bool row_form_;
+  int active_dofs_;
+  GoalErrors errors_, errors_trial_;
+  double trace_ = 0.0;
+  double gradient_norm2_ = 0.0;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Helpers both solvers' loops use.
+
+// params_trial = params + step (capped by max_step_angle, ball vectors wrapped), projected onto the
+// joint limits.
+inline void make_trial(const Chain& chain, const SolverOptions& o, const double* params, const double* step,
+                       Workspace& ws) {
+  const int n = chain.dof_count();
+  double* trial = ws.params_trial.data();
+  std::copy(params, params + n, trial);
+  apply_step(chain, step, o.max_step_angle, trial);
+  project_to_limits(chain, trial);
+}
+
+// A stationary point with error left that is not a best reach: the gradient J^T e vanishes
+// although the goals are not met, e.g. a straight chain whose target lies on its own line (ahead
+// but closer, behind the root, on the root). Every Jacobian method stands still there, so the
+// solvers "kick" the pose once: a fixed, deterministic bend of every active joint, after which
+// the gradient is generic. Not for a single tip goal beyond the chain's reach, where the straight
+// pose pointing at the target is the optimum itself.
+inline bool is_singular_stationary(double gradient_norm2, double jacobian_norm, double residual_norm) {
+  const double scale = 1e-10 * jacobian_norm * residual_norm;
+  return gradient_norm2 <= scale * scale;
+}
+
+inline bool target_beyond_reach(const Chain& chain, Span<const Goal> goals) {
+  return goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
+         resolve_effector(chain, goals[0].effector) == chain.joint_count() &&
+         glm::length(goals[0].target_position - chain.root_in_base()) >= chain.total_length();
+}
+
+// Adds the kick (radians, ~0.1-0.2 per DOF, signs alternating irregularly) to params.
+inline void kick(const Chain& chain, int active_dofs, Workspace& ws, double* params) {
+  double* step = ws.dof_vec_b.data();
+  for (int j = 0; j < chain.dof_count(); ++j)
+    step[j] = j < active_dofs ? 0.15 * std::sin(2.399963 * (j + 1)) : 0.0;  // golden angle
+  apply_step(chain, step, 0.0, params);
+  project_to_limits(chain, params);
+}
+
+// At a singular stationary point (see is_singular_stationary) kicks the pose, at most
+// `kicks_left` times per solve, and re-linearises there; remembers the pose before the first kick
+// in params_best / best_cost so the solver can return it if the kicked pose ends up worse.
+// Returns true when it kicked. Call right after model.linearize(params).
+template <class Model>
+bool kick_if_stuck(const Chain& chain, Span<const Goal> goals, Model& model, Workspace& ws, double* params,
+                   int& kicks_left, double& best_cost) {
+  if (kicks_left <= 0 || target_beyond_reach(chain, goals) ||
+      !is_singular_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm()))
+    return false;
+  --kicks_left;
+  if (model.cost() < best_cost) {
+    best_cost = model.cost();
+    std::copy(params, params + chain.dof_count(), ws.params_best.data());
+  }
+  kick(chain, model.active_dofs(), ws, params);
+  model.evaluate(params);
+  model.accept();
+  model.linearize(params);
+  return true;
+}
+
+// Leaves params at the better of the current pose and the pre-kick pose.
+template <class Model>
+void keep_best(const Chain& chain, const Model& model, const Workspace& ws, double best_cost, double* params) {
+  if (best_cost < model.cost())
+    std::copy(ws.params_best.data(), ws.params_best.data() + chain.dof_count(), params);
+}
+
+// Relative improvements below stall_tolerance this many accepted steps in a row mean "stalled".
+constexpr int kStallCount = 3;
+
+// Testing hooks: the solvers forced onto GoalModel even for one position goal, so a test can check
+// that the fast path and the generic path agree. Same preconditions as solvers.hpp.
+SolverStatus solve_jacobian_pinv_generic(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&,
+                                         double* params);
+SolverStatus solve_dls_generic(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double* params);
+
+}  // namespace jacobian
+}  // namespace ikchain
