@@ -39,6 +39,7 @@ Message ChainBuilder::build(Chain& out) const {
   c.dof_offsets_.resize(n);
   c.offset_translations_.resize(n);
   c.rest_rotations_.resize(n);
+  c.rest_identity_.resize(n);
   c.hinge_axes_.resize(n);
   c.limits_.resize(n);
   c.bone_lengths_.resize(n);
@@ -86,6 +87,8 @@ Message ChainBuilder::build(Chain& out) const {
     dofs += j.type == JointType::kBall ? 3 : 1;
     c.offset_translations_[i] = j.offset_translation;
     c.rest_rotations_[i] = glm::normalize(j.rest_rotation);
+    const glm::dquat& r = c.rest_rotations_[i];
+    c.rest_identity_[i] = (r.w == 1.0 && r.x == 0.0 && r.y == 0.0 && r.z == 0.0) ? 1 : 0;
     c.hinge_axes_[i] = axis;
     c.limits_[i] = l;
   }

@@ -84,6 +84,8 @@ class Chain {
   int dof_count_of(int i) const { return joint_type(i) == JointType::kBall ? 3 : 1; }
   const glm::dvec3& offset_translation(int i) const { return offset_translations_[i]; }
   const glm::dquat& rest_rotation(int i) const { return rest_rotations_[i]; }
+  // True when rest_rotation(i) is exactly the identity (FK skips the product).
+  bool rest_is_identity(int i) const { return rest_identity_[i] != 0; }
   const glm::dvec3& hinge_axis(int i) const { return hinge_axes_[i]; }
   const JointLimits& limits(int i) const { return limits_[i]; }
   bool has_limits(int i) const;
@@ -107,6 +109,7 @@ class Chain {
   std::vector<int> dof_offsets_;
   std::vector<glm::dvec3> offset_translations_;
   std::vector<glm::dquat> rest_rotations_;
+  std::vector<uint8_t> rest_identity_;
   std::vector<glm::dvec3> hinge_axes_;
   std::vector<JointLimits> limits_;
   std::vector<double> bone_lengths_;

@@ -5,6 +5,7 @@
 #include "core/chain.hpp"
 #include "core/goal.hpp"
 #include "core/options.hpp"
+#include "core/so3.hpp"
 #include "core/span.hpp"
 #include "core/workspace.hpp"
 
@@ -13,8 +14,17 @@ namespace ikchain {
 // Fills ws.joint_origins, joint_orientations, joint_pre_rotations and ws.tip from params.
 void forward_kinematics(const Chain& chain, const double* params, Workspace& ws);
 
-// Local rotation R_i(params) of joint i (excluding its rest rotation).
-glm::dquat joint_motion(const Chain& chain, int joint, const double* params);
+// Local rotation R_i(params) of joint i (excluding its rest rotation). Inline: FK's inner loop.
+inline glm::dquat joint_motion(const Chain& chain, int joint, const double* params) {
+  const double* p = params + chain.dof_offset(joint);
+  if (chain.joint_type(joint) == JointType::kHinge) {
+    double s, c;
+    so3::fast_sincos(0.5 * p[0], s, c);
+    const glm::dvec3& a = chain.hinge_axis(joint);  // unit length (ChainBuilder)
+    return glm::dquat(c, s * a.x, s * a.y, s * a.z);
+  }
+  return so3::exp(glm::dvec3(p[0], p[1], p[2]));
+}
 
 // Effector k in 1..n (0 = the tip); see chain.hpp. Valid after forward_kinematics().
 int resolve_effector(const Chain& chain, int effector);

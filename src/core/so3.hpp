@@ -3,6 +3,8 @@
 // Reference: Sola, Deray, Atchuthan, "A micro Lie theory for state estimation in robotics" (2018),
 // eq. (143)-(146) for the SO(3) left Jacobian.
 #pragma once
+#include <cmath>
+
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
@@ -76,6 +78,48 @@ inline glm::dvec3 wrap_rotation_vector(const glm::dvec3& r) {
   const double theta = glm::length(r);
   if (theta <= kPi) return r;
   return log(exp(r));
+}
+
+// sin and cos of x together, for FK's hinge half-angles (forward_kinematics and the Jacobian
+// solvers' fused FK). libm's sincos is accurate but
+// is a function call with a general argument reduction; this inline version (the fdlibm kernels
+// __kernel_sin/__kernel_cos with a three-part Cody-Waite reduction by pi/2, as in fdlibm's
+// e_rem_pio2.c) is accurate to ~1 ulp for |x| < 1e5 and several times faster. Larger or
+// non-finite x fall back to libm.
+inline void fast_sincos(double x, double& sin_x, double& cos_x) {
+  if (!(std::abs(x) < 1e5)) {
+    sin_x = std::sin(x);
+    cos_x = std::cos(x);
+    return;
+  }
+  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+  constexpr double kPio2_1 = 1.57079632673412561417e+00;   // first 33 bits of pi/2
+  constexpr double kPio2_2 = 6.07710050630396597660e-11;   // next 33 bits
+  constexpr double kPio2_3 = 2.02226624871116645580e-21;   // next 33 bits
+  constexpr double kPio2_3t = 8.47842766036889956997e-32;  // pi/2 - (pio2_1 + pio2_2 + pio2_3)
+  // Nearest multiple of pi/2 (truncating conversion: one instruction, unlike floor without SSE4.1).
+  const long qi = static_cast<long>(x * kTwoOverPi + (x >= 0.0 ? 0.5 : -0.5));
+  const double q = static_cast<double>(qi);
+  // q * pio2_1 and q * pio2_2 are exact (|q| < 2^17, 33-bit constants), so r carries ~100 bits of pi.
+  const double r = ((x - q * kPio2_1) - q * kPio2_2) - (q * kPio2_3 + q * kPio2_3t);
+  const double z = r * r;
+  const double s = r + r * z * (-1.66666666666666324348e-01 +
+                                z * (8.33333333332248946124e-03 +
+                                     z * (-1.98412698298579493134e-04 +
+                                          z * (2.75573137070700676789e-06 +
+                                               z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+  const double c = 1.0 - 0.5 * z +
+                   z * z * (4.16666666666666019037e-02 +
+                            z * (-1.38888888888741095749e-03 +
+                                 z * (2.48015872894767294178e-05 +
+                                      z * (-2.75573143513906633035e-07 +
+                                           z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
+  switch (qi & 3) {
+    case 0: sin_x = s; cos_x = c; break;
+    case 1: sin_x = c; cos_x = -s; break;
+    case 2: sin_x = -s; cos_x = -c; break;
+    default: sin_x = -c; cos_x = s; break;
+  }
 }
 
 inline bool finite(const glm::dvec3& v) {

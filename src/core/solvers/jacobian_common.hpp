@@ -25,6 +25,7 @@
 #include <Eigen/Dense>
 
 #include "core/kinematics.hpp"
+#include "core/quat_ops.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/solvers.hpp"
 
@@ -75,47 +76,6 @@ void jacobi_eigen(MatA& a, MatV& v, int k) {
   }
 }
 
-// sin and cos of x together, for the fused FK's hinge half-angles. libm's sincos is accurate but
-// is a function call with a general argument reduction; this inline version (the fdlibm kernels
-// __kernel_sin/__kernel_cos with a three-part Cody-Waite reduction by pi/2, as in fdlibm's
-// e_rem_pio2.c) is accurate to ~1 ulp for |x| < 1e5 and several times faster. Larger or
-// non-finite x fall back to libm.
-inline void fast_sincos(double x, double& sin_x, double& cos_x) {
-  if (!(std::abs(x) < 1e5)) {
-    sin_x = std::sin(x);
-    cos_x = std::cos(x);
-    return;
-  }
-  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
-  constexpr double kPio2_1 = 1.57079632673412561417e+00;   // first 33 bits of pi/2
-  constexpr double kPio2_2 = 6.07710050630396597660e-11;   // next 33 bits
-  constexpr double kPio2_3 = 2.02226624871116645580e-21;   // next 33 bits
-  constexpr double kPio2_3t = 8.47842766036889956997e-32;  // pi/2 - (pio2_1 + pio2_2 + pio2_3)
-  // Nearest multiple of pi/2 (truncating conversion: one instruction, unlike floor without SSE4.1).
-  const long qi = static_cast<long>(x * kTwoOverPi + (x >= 0.0 ? 0.5 : -0.5));
-  const double q = static_cast<double>(qi);
-  // q * pio2_1 and q * pio2_2 are exact (|q| < 2^17, 33-bit constants), so r carries ~100 bits of pi.
-  const double r = ((x - q * kPio2_1) - q * kPio2_2) - (q * kPio2_3 + q * kPio2_3t);
-  const double z = r * r;
-  const double s = r + r * z * (-1.66666666666666324348e-01 +
-                                z * (8.33333333332248946124e-03 +
-                                     z * (-1.98412698298579493134e-04 +
-                                          z * (2.75573137070700676789e-06 +
-                                               z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
-  const double c = 1.0 - 0.5 * z +
-                   z * z * (4.16666666666666019037e-02 +
-                            z * (-1.38888888888741095749e-03 +
-                                 z * (2.48015872894767294178e-05 +
-                                      z * (-2.75573143513906633035e-07 +
-                                           z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
-  switch (qi & 3) {
-    case 0: sin_x = s; cos_x = c; break;
-    case 1: sin_x = c; cos_x = -s; break;
-    case 2: sin_x = -s; cos_x = -c; break;
-    default: sin_x = -c; cos_x = s; break;
-  }
-}
-
 // Solves (A) y = b for a symmetric positive definite 3x3 A by LDL^T, unrolled (Eigen's fixed-size
 // LLT is a generic loop with square roots). Pivots that rounding made non-positive are clamped to
 // a tiny positive value: the caller only uses this with a positive damping or a certified rank.
@@ -154,55 +114,8 @@ inline int active_dof_count(const Chain& chain, Span<const Goal> goals) {
   return k >= chain.joint_count() ? chain.dof_count() : chain.dof_offset(k);
 }
 
-// A unit quaternion as four scalars, for the fused FK's inner loop.
-struct Quat {
-  double w, x, y, z;
-};
-inline Quat multiply(const Quat& a, const Quat& b) {
-  return Quat{a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
-              a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
-}
-// q v q^*, as v + w t + u x t with t = 2 u x v (u = the vector part).
-inline glm::dvec3 rotate(const Quat& q, const glm::dvec3& v) {
-  const double tx = 2.0 * (q.y * v.z - q.z * v.y);
-  const double ty = 2.0 * (q.z * v.x - q.x * v.z);
-  const double tz = 2.0 * (q.x * v.y - q.y * v.x);
-  return glm::dvec3(v.x + q.w * tx + (q.y * tz - q.z * ty), v.y + q.w * ty + (q.z * tx - q.x * tz),
-                    v.z + q.w * tz + (q.x * ty - q.y * tx));
-}
-
-// Sparse cases of the two operations above, for the directions rigs are built from (hinges about a
-// coordinate axis, bones along one axis - Godot's along +Y): a column of q's rotation matrix, or a
-// product with a rotation about a coordinate axis, costs a third of the general formula. The
-// branches depend only on the chain, so they predict perfectly.
-__attribute__((always_inline)) inline glm::dvec3 rotate_sparse(const Quat& q, const glm::dvec3& v) {
-  if (v.x == 0.0 && v.z == 0.0)  // along y: v.y * column y of R(q)
-    return v.y * glm::dvec3(2.0 * (q.x * q.y - q.w * q.z), 1.0 - 2.0 * (q.x * q.x + q.z * q.z),
-                            2.0 * (q.y * q.z + q.w * q.x));
-  if (v.x == 0.0 && v.y == 0.0)  // along z
-    return v.z * glm::dvec3(2.0 * (q.x * q.z + q.w * q.y), 2.0 * (q.y * q.z - q.w * q.x),
-                            1.0 - 2.0 * (q.x * q.x + q.y * q.y));
-  if (v.y == 0.0 && v.z == 0.0)  // along x
-    return v.x * glm::dvec3(1.0 - 2.0 * (q.y * q.y + q.z * q.z), 2.0 * (q.x * q.y + q.w * q.z),
-                            2.0 * (q.x * q.z - q.w * q.y));
-  return rotate(q, v);
-}
-// q * (cos(t/2), sin(t/2) * axis) given c = cos(t/2), s = sin(t/2), axis a unit vector.
-inline Quat multiply_axis_angle(const Quat& a, const glm::dvec3& axis, double c, double s) {
-  if (axis.x == 0.0 && axis.y == 0.0) {  // about +-z
-    s *= axis.z;
-    return Quat{a.w * c - a.z * s, a.x * c + a.y * s, a.y * c - a.x * s, a.z * c + a.w * s};
-  }
-  if (axis.x == 0.0 && axis.z == 0.0) {  // about +-y
-    s *= axis.y;
-    return Quat{a.w * c - a.y * s, a.x * c - a.z * s, a.y * c + a.w * s, a.z * c + a.x * s};
-  }
-  if (axis.y == 0.0 && axis.z == 0.0) {  // about +-x
-    s *= axis.x;
-    return Quat{a.w * c - a.x * s, a.x * c + a.w * s, a.y * c + a.z * s, a.z * c - a.y * s};
-  }
-  return multiply(a, Quat{c, s * axis.x, s * axis.y, s * axis.z});
-}
+// Scalar quaternion arithmetic shared with forward_kinematics (core/quat_ops.hpp).
+using namespace quat_ops;
 
 // ------------------------------------------------------------------------------------------------
 // One position goal: fused FK + Jacobian + 3x3 Gram matrix, O(n) per iteration.
@@ -239,7 +152,7 @@ class SinglePositionModel {
       if (chain_.joint_type(i) == JointType::kHinge) {
         const glm::dvec3& axis = chain_.hinge_axis(i);
         double s, c;
-        fast_sincos(0.5 * params[o], s, c);
+        so3::fast_sincos(0.5 * params[o], s, c);
         q = multiply_axis_angle(pre, axis, c, s);
         ws_.dof_axes[o] = rotate_sparse(pre, axis);
       } else {
