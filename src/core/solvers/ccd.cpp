@@ -32,7 +32,7 @@
 //    root to tip (geometric::aim_chain_at_points); later sweeps only refine it under limits.
 //  - CCD's fixed points include saddles: a straight chain with the target straight ahead but closer
 //    gives every joint a == b in direction, so no joint moves. A sweep that moves no joint while
-//    the goals are not met curls every joint by kKickAngle (geometric::curl; at most kMaxKicks
+//    the goals are not met curls every joint by Progress::kKickAngle (geometric::curl; at most Progress::kMaxKicks
 //    times) and goes on.
 // Termination: converged on tolerance; stalled after kStallIterations sweeps in a row that improve
 // the cost by less than stall_tolerance (relative to the previous sweep's), or after a sweep that
@@ -48,9 +48,6 @@ namespace ikchain {
 namespace {
 
 constexpr int kMaxGoals = 16;
-constexpr int kMaxKicks = 2;
-constexpr double kKickAngle = 0.1;  // rad per joint: enough to break the symmetry, small to undo
-constexpr double kStillAngle = 1e-12;  // rad: a sweep turning no joint more than this moved nothing
 
 // An effector a goal is attached to, tracked through the sweep.
 struct Tracked {
@@ -230,59 +227,29 @@ SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverO
   }
   Tracked tracked[kMaxGoals];
   const int n = chain.joint_count();
-  forward_kinematics(chain, params, ws);
-  GoalErrors err = measure_goals(chain, goals, ws);
-  geometric::BestPose best;
-  best.init(chain, ws, params, err.cost);
-
   // One tip position goal at or beyond full reach: straighten toward it first (see above).
-  const bool single_tip = goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
-                          resolve_effector(chain, goals[0].effector) == n;
-  const bool out_of_reach =
-      single_tip && glm::length(goals[0].target_position - chain.root_in_base()) >=
-                        chain.total_length() - options.position_tolerance;
-
-  int stalls = 0, kicks = 0;
-  double previous_cost = err.cost;
+  geometric::Progress progress(chain, goals, options, ws, params, geometric::kStallIterations);
   status.reason = TerminationReason::kMaxIterations;
   while (status.iterations < options.max_iterations) {
     double moved = INFINITY;
-    if (status.iterations == 0 && out_of_reach) {
+    if (status.iterations == 0 && progress.out_of_reach()) {
       for (int k = 1; k <= n; ++k) ws.points_b[k] = goals[0].target_position;
       geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params);
     } else {
       moved = sweep(chain, goals, options, ws, tracked, params);
     }
     ++status.iterations;
-    forward_kinematics(chain, params, ws);
-    err = measure_goals(chain, goals, ws);
-    best.offer(chain, ws, params, err.cost);
-    if (err.within(options)) {
+    const geometric::Progress::Verdict verdict = progress.after_iteration(params, moved);
+    if (verdict == geometric::Progress::Verdict::kConverged) {
       status.reason = TerminationReason::kConverged;
       return status;
     }
-    if (moved <= kStillAngle) {
-      // A fixed point of CCD: the next sweep would repeat this one.
-      if (kicks < kMaxKicks && !out_of_reach) {
-        ++kicks;
-        geometric::curl(chain, kKickAngle, params);
-        forward_kinematics(chain, params, ws);
-        previous_cost = measure_goals(chain, goals, ws).cost;
-        stalls = 0;
-        continue;
-      }
-      status.reason = TerminationReason::kStalled;
-      break;
-    }
-    stalls = (previous_cost - err.cost <= options.stall_tolerance * previous_cost) ? stalls + 1 : 0;
-    previous_cost = err.cost;
-    if (stalls >= geometric::kStallIterations) {
+    if (verdict == geometric::Progress::Verdict::kStalled) {
       status.reason = TerminationReason::kStalled;
       break;
     }
   }
-  best.restore(chain, ws, params);
-  forward_kinematics(chain, params, ws);
+  progress.finish(params);
   return status;
 }
 

@@ -24,7 +24,8 @@
 //    lines 4-9). Later iterations only matter under limits or hinges.
 //  - a straight chain with the target straight ahead but closer is a fixed point (every forward-
 //    reaching point lands on the chain's own line); an iteration that changes no parameter while
-//    the goals are not met curls every joint by kKickAngle (at most kMaxKicks times) and goes on.
+//    the goals are not met curls every joint by Progress::kKickAngle (at most Progress::kMaxKicks
+//    times) and goes on.
 //
 // Goal sets. FABRIK is a positional method:
 //  - position goals on any effector are supported: the tip goal (if any) anchors the forward stage,
@@ -49,9 +50,6 @@ namespace ikchain {
 namespace {
 
 constexpr int kFabrikStallIterations = 8;
-constexpr int kMaxKicks = 2;
-constexpr double kKickAngle = 0.1;     // rad per joint (see the singular-start note above)
-constexpr double kStillAngle = 1e-12;  // rad: an iteration changing no parameter more than this moved nothing
 
 // Weighted mean of the position goals on effector k (1..n); false when there are none.
 bool pinned_target(const Chain& chain, Span<const Goal> goals, int k, glm::dvec3& out) {
@@ -95,22 +93,10 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
                           Workspace& ws, double* params) {
   SolverStatus status;
   const int n = chain.joint_count();
-  forward_kinematics(chain, params, ws);
-  GoalErrors err = measure_goals(chain, goals, ws);
-  geometric::BestPose best;
-  best.init(chain, ws, params, err.cost);
-
-  const bool single_tip = goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
-                          resolve_effector(chain, goals[0].effector) == n;
-  const bool out_of_reach =
-      single_tip && glm::length(goals[0].target_position - chain.root_in_base()) >=
-                        chain.total_length() - options.position_tolerance;
-
-  int stalls = 0, kicks = 0;
-  double previous_cost = err.cost;
+  geometric::Progress progress(chain, goals, options, ws, params, kFabrikStallIterations);
   status.reason = TerminationReason::kMaxIterations;
   while (status.iterations < options.max_iterations) {
-    if (status.iterations == 0 && out_of_reach) {
+    if (status.iterations == 0 && progress.out_of_reach()) {
       for (int k = 1; k <= n; ++k) ws.points_b[k] = goals[0].target_position;
     } else {
       for (int k = 0; k < n; ++k) ws.points_a[k] = ws.joint_origins[k];
@@ -123,35 +109,17 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
     double moved = 0.0;
     for (int d = 0; d < chain.dof_count(); ++d)
       moved = std::max(moved, std::abs(params[d] - ws.params_trial[d]));
-    forward_kinematics(chain, params, ws);
-    err = measure_goals(chain, goals, ws);
-    best.offer(chain, ws, params, err.cost);
-    if (err.within(options)) {
+    const geometric::Progress::Verdict verdict = progress.after_iteration(params, moved);
+    if (verdict == geometric::Progress::Verdict::kConverged) {
       status.reason = TerminationReason::kConverged;
       return status;
     }
-    if (moved <= kStillAngle) {
-      // A fixed point: the next iteration would repeat this one.
-      if (kicks < kMaxKicks && !out_of_reach) {
-        ++kicks;
-        geometric::curl(chain, kKickAngle, params);
-        forward_kinematics(chain, params, ws);
-        previous_cost = measure_goals(chain, goals, ws).cost;
-        stalls = 0;
-        continue;
-      }
-      status.reason = TerminationReason::kStalled;
-      break;
-    }
-    stalls = (previous_cost - err.cost <= options.stall_tolerance * previous_cost) ? stalls + 1 : 0;
-    previous_cost = err.cost;
-    if (stalls >= kFabrikStallIterations) {
+    if (verdict == geometric::Progress::Verdict::kStalled) {
       status.reason = TerminationReason::kStalled;
       break;
     }
   }
-  best.restore(chain, ws, params);
-  forward_kinematics(chain, params, ws);
+  progress.finish(params);
   return status;
 }
 

@@ -254,5 +254,77 @@ struct BestPose {
 // stall_tolerance (relative) counts; this many in a row stop the solve.
 constexpr int kStallIterations = 3;
 
+// The bookkeeping CCD and FABRIK do around their iterations: the start pose's error, the best pose
+// seen (returned at the end), the fixed-point "kick" and the stall rule.
+//  - A fixed point (an iteration turning no parameter more than kStillAngle) with goals unmet and
+//    a reachable target is a symmetric deadlock (e.g. a straight chain pulled along itself): every
+//    joint is curled by kKickAngle (at most kMaxKicks times) and the solve goes on.
+//  - stall_iterations iterations in a row improving the cost by less than stall_tolerance
+//    (relative) stop the solve as stalled.
+class Progress {
+ public:
+  static constexpr int kMaxKicks = 2;
+  static constexpr double kKickAngle = 0.1;     // rad per joint: breaks the symmetry, small to undo
+  static constexpr double kStillAngle = 1e-12;  // rad
+
+  enum class Verdict { kGoOn, kConverged, kStalled };
+
+  // Measures the start pose (FK into ws) and decides whether the target is a single tip position
+  // goal at or beyond full reach (the solvers straighten toward it first).
+  Progress(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
+           const double* params, int stall_iterations)
+      : chain_(chain), goals_(goals), options_(options), ws_(ws), stall_iterations_(stall_iterations) {
+    forward_kinematics(chain, params, ws);
+    previous_cost_ = measure_goals(chain, goals, ws).cost;
+    best_.init(chain, ws, params, previous_cost_);
+    const int n = chain.joint_count();
+    const bool single_tip = goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
+                            resolve_effector(chain, goals[0].effector) == n;
+    out_of_reach_ = single_tip && glm::length(goals[0].target_position - chain.root_in_base()) >=
+                                      chain.total_length() - options.position_tolerance;
+  }
+
+  bool out_of_reach() const { return out_of_reach_; }
+
+  // After an iteration that changed no parameter by more than `moved` (rad): measures the pose
+  // (FK into ws), keeps it if best, and says how to go on (kicking params when deadlocked).
+  Verdict after_iteration(double* params, double moved) {
+    forward_kinematics(chain_, params, ws_);
+    const GoalErrors err = measure_goals(chain_, goals_, ws_);
+    best_.offer(chain_, ws_, params, err.cost);
+    if (err.within(options_)) return Verdict::kConverged;
+    if (moved <= kStillAngle) {
+      if (kicks_ >= kMaxKicks || out_of_reach_) return Verdict::kStalled;
+      ++kicks_;
+      curl(chain_, kKickAngle, params);
+      forward_kinematics(chain_, params, ws_);
+      previous_cost_ = measure_goals(chain_, goals_, ws_).cost;
+      stalls_ = 0;
+      return Verdict::kGoOn;
+    }
+    stalls_ = (previous_cost_ - err.cost <= options_.stall_tolerance * previous_cost_) ? stalls_ + 1 : 0;
+    previous_cost_ = err.cost;
+    return stalls_ >= stall_iterations_ ? Verdict::kStalled : Verdict::kGoOn;
+  }
+
+  // Leaves params (and ws's FK) at the best pose seen.
+  void finish(double* params) const {
+    best_.restore(chain_, ws_, params);
+    forward_kinematics(chain_, params, ws_);
+  }
+
+ private:
+  const Chain& chain_;
+  Span<const Goal> goals_;
+  const SolverOptions& options_;
+  Workspace& ws_;
+  int stall_iterations_;
+  BestPose best_;
+  double previous_cost_ = 0.0;
+  bool out_of_reach_ = false;
+  int stalls_ = 0;
+  int kicks_ = 0;
+};
+
 }  // namespace geometric
 }  // namespace ikchain
