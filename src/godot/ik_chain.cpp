@@ -1,6 +1,7 @@
 #include "ik_chain.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -196,19 +197,36 @@ void IKChain::set_target(const gdx::NodePath& path) {
 }
 gdx::NodePath IKChain::get_target() const { return target_; }
 
+// Out-of-range values from scripts (the editor's range hints already prevent them there) are
+// clamped to the nearest valid value with an error naming the property, the range and the value used.
+namespace {
+void report_clamped(const char* property, const char* range, double given, double used) {
+  char message[256];
+  std::snprintf(message, sizeof(message), "IKChain: %s must be in %s, got %g; using %g.", property, range, given,
+                used);
+  IKCHAIN_PRINT_ERROR(message);
+}
+}  // namespace
+
 void IKChain::set_solver(int64_t solver) {
   solver_ = std::clamp<int64_t>(solver, SOLVER_TWO_BONE, SOLVER_FABRIK);
+  if (solver_ != solver) report_clamped("solver", "0..5 (IKChain.SOLVER_*)", double(solver), double(solver_));
   mark_dirty();
 }
 
 void IKChain::set_max_iterations(int64_t n) {
   max_iterations_ = std::clamp<int64_t>(n, 1, 1000);
+  if (max_iterations_ != n) report_clamped("max_iterations", "1..1000", double(n), double(max_iterations_));
   options_.max_iterations = int(max_iterations_);
 }
 
 void IKChain::set_tolerance(double meters) {
-  if (std::isnan(meters)) return;  // keep the last valid value
+  if (std::isnan(meters)) {
+    report_clamped("tolerance", "[1e-06, 1] m", meters, tolerance_);  // keeps the last valid value
+    return;
+  }
   tolerance_ = std::clamp(meters, 1e-6, 1.0);
+  if (tolerance_ != meters) report_clamped("tolerance", "[1e-06, 1] m", meters, tolerance_);
   options_.position_tolerance = tolerance_;
 }
 

@@ -109,3 +109,25 @@ func test_last_result_before_any_solve() -> void:
 		check(typeof(r.get(key)) == TYPE_FLOAT and not is_nan(r.get(key)), "%s is a float, not NaN" % key)
 	check(typeof(r.get("iterations")) == TYPE_INT, "iterations is an int")
 	ik.free()
+
+
+# Out-of-range values from scripts: clamped to the nearest valid value (a defined result), each
+# with one ERROR line naming the property, its range and the value used; NaN keeps the last value.
+func test_out_of_range_properties_are_clamped_with_an_error() -> void:
+	var ik := IKChain.new()
+	expect_error("max_iterations must be in 1\\.\\.1000, got 0; using 1", 1)
+	ik.max_iterations = 0
+	check_eq(ik.max_iterations, 1, "max_iterations = 0")
+	expect_error("max_iterations must be in 1\\.\\.1000, got 5000; using 1000", 1)
+	ik.set("max_iterations", 5000)
+	check_eq(ik.max_iterations, 1000, "max_iterations = 5000 (Variant path)")
+	expect_error("tolerance must be in \\[1e-06, 1\\] m, got -1; using 1e-06", 1)
+	ik.tolerance = -1.0
+	check_eq(ik.tolerance, 1e-6, "tolerance = -1")
+	expect_error("tolerance must be in \\[1e-06, 1\\] m, got nan; using 1e-06", 1)
+	ik.tolerance = NAN
+	check_eq(ik.tolerance, 1e-6, "tolerance = NAN keeps the last value")
+	expect_error("solver must be in 0\\.\\.5 .*got 9; using 5", 1)
+	ik.solver = 9
+	check_eq(ik.solver, IKChain.SOLVER_FABRIK, "solver = 9")
+	ik.free()
