@@ -239,17 +239,9 @@ SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverO
       moved = sweep(chain, goals, options, ws, tracked, params);
     }
     ++status.iterations;
-    const geometric::Progress::Verdict verdict = progress.after_iteration(params, moved);
-    if (verdict == geometric::Progress::Verdict::kConverged) {
-      status.reason = TerminationReason::kConverged;
-      return status;
-    }
-    if (verdict == geometric::Progress::Verdict::kStalled) {
-      status.reason = TerminationReason::kStalled;
-      break;
-    }
+    if (progress.stop_after_iteration(params, moved, status.reason)) break;
   }
-  progress.finish(params);
+  progress.finish(status.reason, params);
   return status;
 }
 

@@ -109,17 +109,9 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
     double moved = 0.0;
     for (int d = 0; d < chain.dof_count(); ++d)
       moved = std::max(moved, std::abs(params[d] - ws.params_trial[d]));
-    const geometric::Progress::Verdict verdict = progress.after_iteration(params, moved);
-    if (verdict == geometric::Progress::Verdict::kConverged) {
-      status.reason = TerminationReason::kConverged;
-      return status;
-    }
-    if (verdict == geometric::Progress::Verdict::kStalled) {
-      status.reason = TerminationReason::kStalled;
-      break;
-    }
+    if (progress.stop_after_iteration(params, moved, status.reason)) break;
   }
-  progress.finish(params);
+  progress.finish(status.reason, params);
   return status;
 }
 

@@ -13,6 +13,7 @@
 
 #include "core/chain.hpp"
 #include "core/kinematics.hpp"
+#include "core/result.hpp"
 #include "core/so3.hpp"
 #include "core/workspace.hpp"
 
@@ -267,8 +268,6 @@ class Progress {
   static constexpr double kKickAngle = 0.1;     // rad per joint: breaks the symmetry, small to undo
   static constexpr double kStillAngle = 1e-12;  // rad
 
-  enum class Verdict { kGoOn, kConverged, kStalled };
-
   // Measures the start pose (FK into ws) and decides whether the target is a single tip position
   // goal at or beyond full reach (the solvers straighten toward it first).
   Progress(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
@@ -287,28 +286,38 @@ class Progress {
   bool out_of_reach() const { return out_of_reach_; }
 
   // After an iteration that changed no parameter by more than `moved` (rad): measures the pose
-  // (FK into ws), keeps it if best, and says how to go on (kicking params when deadlocked).
-  Verdict after_iteration(double* params, double moved) {
+  // (FK into ws), keeps it if best, kicks params when deadlocked, and returns true when the solve
+  // stops, with `reason` set to kConverged or kStalled (left alone otherwise).
+  bool stop_after_iteration(double* params, double moved, TerminationReason& reason) {
     forward_kinematics(chain_, params, ws_);
     const GoalErrors err = measure_goals(chain_, goals_, ws_);
     best_.offer(chain_, ws_, params, err.cost);
-    if (err.within(options_)) return Verdict::kConverged;
+    if (err.within(options_)) {
+      reason = TerminationReason::kConverged;
+      return true;
+    }
     if (moved <= kStillAngle) {
-      if (kicks_ >= kMaxKicks || out_of_reach_) return Verdict::kStalled;
+      if (kicks_ >= kMaxKicks || out_of_reach_) {
+        reason = TerminationReason::kStalled;
+        return true;
+      }
       ++kicks_;
       curl(chain_, kKickAngle, params);
       forward_kinematics(chain_, params, ws_);
       previous_cost_ = measure_goals(chain_, goals_, ws_).cost;
       stalls_ = 0;
-      return Verdict::kGoOn;
+      return false;
     }
     stalls_ = (previous_cost_ - err.cost <= options_.stall_tolerance * previous_cost_) ? stalls_ + 1 : 0;
     previous_cost_ = err.cost;
-    return stalls_ >= stall_iterations_ ? Verdict::kStalled : Verdict::kGoOn;
+    if (stalls_ < stall_iterations_) return false;
+    reason = TerminationReason::kStalled;
+    return true;
   }
 
-  // Leaves params (and ws's FK) at the best pose seen.
-  void finish(double* params) const {
+  // A converged pose stays as it is; otherwise params (and ws's FK) go to the best pose seen.
+  void finish(TerminationReason reason, double* params) const {
+    if (reason == TerminationReason::kConverged) return;
     best_.restore(chain_, ws_, params);
     forward_kinematics(chain_, params, ws_);
   }
