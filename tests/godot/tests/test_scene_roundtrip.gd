@@ -50,51 +50,51 @@ func _save_and_load(scene_root: Node3D) -> Node3D:
 	return inst
 
 
-func test_custom_values_survive() -> void:
-	var original := _make_scene(true)
+## Saves and reloads `original` (freed here) and checks the loaded IKChain's properties against
+## `expected` (property name -> value; tolerance compared to 1e-9). Returns the loaded scene root,
+## or null (nothing left to free) when loading or finding the chain failed.
+func _reload_and_check(original: Node3D, expected: Dictionary) -> Node3D:
 	var inst := _save_and_load(original)
 	original.free()
 	if inst == null:
-		return
+		return null
 	var ik := inst.get_node_or_null("Skeleton/IKChain") as IKChain
-	if check(ik != null, "Skeleton/IKChain exists and is an IKChain after loading"):
-		check_eq(ik.root_bone, "j0", "root_bone")
-		check_eq(ik.tip_bone, "tip", "tip_bone")
-		check_eq(ik.target, NodePath("../../Target"), "target")
-		check_eq(ik.solver, IKChain.SOLVER_FABRIK, "solver")
-		check_eq(ik.max_iterations, 17, "max_iterations")
-		check_near(ik.tolerance, 0.0025, 1e-9, "tolerance")
-		check_eq(ik.deterministic, true, "deterministic")
-		# The loaded node is a working chain: it reaches its (reachable) target.
-		var skel := inst.get_node("Skeleton") as Skeleton3D
-		var target := inst.get_node("Target") as Node3D
-		var cap := {}
-		skel.skeleton_updated.connect(func():
-			if cap.is_empty():
-				cap["tip"] = Arm.tip_world(skel)
-				cap["reason"] = ik.get_last_result().get("reason"))
-		case_root.add_child(inst)
-		await frames(2)
-		if check(not cap.is_empty(), "loaded scene: skeleton_updated"):
-			check_le((cap["tip"] as Vector3).distance_to(target.global_position), 0.0025 + 2e-6, "loaded scene: tip to target (m)")
-			check_eq(cap["reason"], "converged", "loaded scene: reason")
+	if not check(ik != null, "Skeleton/IKChain exists and is an IKChain after loading"):
+		inst.free()
+		return null
+	for property in expected:
+		if property == "tolerance":
+			check_near(ik.get(property), expected[property], 1e-9, property)
+		else:
+			check_eq(ik.get(property), expected[property], property)
+	return inst
+
+
+func test_custom_values_survive() -> void:
+	var inst := _reload_and_check(_make_scene(true), {
+		"root_bone": "j0", "tip_bone": "tip", "target": NodePath("../../Target"),
+		"solver": IKChain.SOLVER_FABRIK, "max_iterations": 17, "tolerance": 0.0025, "deterministic": true})
+	if inst == null:
 		return
-	inst.free()
+	# The loaded node is a working chain: it reaches its (reachable) target.
+	var ik := inst.get_node("Skeleton/IKChain") as IKChain
+	var skel := inst.get_node("Skeleton") as Skeleton3D
+	var target := inst.get_node("Target") as Node3D
+	var cap := {}
+	skel.skeleton_updated.connect(func():
+		if cap.is_empty():
+			cap["tip"] = Arm.tip_world(skel)
+			cap["reason"] = ik.get_last_result().get("reason"))
+	case_root.add_child(inst)
+	await frames(2)
+	if check(not cap.is_empty(), "loaded scene: skeleton_updated"):
+		check_le((cap["tip"] as Vector3).distance_to(target.global_position), 0.0025 + 2e-6, "loaded scene: tip to target (m)")
+		check_eq(cap["reason"], "converged", "loaded scene: reason")
 
 
 func test_defaults_survive() -> void:
-	var original := _make_scene(false)
-	var inst := _save_and_load(original)
-	original.free()
-	if inst == null:
-		return
-	var ik := inst.get_node_or_null("Skeleton/IKChain") as IKChain
-	if check(ik != null, "Skeleton/IKChain exists and is an IKChain after loading"):
-		check_eq(ik.root_bone, "", "root_bone")
-		check_eq(ik.tip_bone, "", "tip_bone")
-		check_eq(ik.target, NodePath(), "target")
-		check_eq(ik.solver, IKChain.SOLVER_DLS, "solver")
-		check_eq(ik.max_iterations, 64, "max_iterations")
-		check_near(ik.tolerance, 0.0001, 1e-9, "tolerance")
-		check_eq(ik.deterministic, false, "deterministic")
-	inst.free()
+	var inst := _reload_and_check(_make_scene(false), {
+		"root_bone": "", "tip_bone": "", "target": NodePath(),
+		"solver": IKChain.SOLVER_DLS, "max_iterations": 64, "tolerance": 0.0001, "deterministic": false})
+	if inst != null:
+		inst.free()
