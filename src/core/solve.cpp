@@ -29,25 +29,22 @@ bool params_finite(const Eigen::Ref<const Eigen::VectorXd>& p) { return p.allFin
 // tip position beyond the chain's length and the tip is as close as the chain's length allows
 // (within position_tolerance), or the objective's gradient J^T e vanishes (a stationary point with
 // error left). Limits make constrained optima non-stationary: those stay "stalled".
+// Needs ws to hold the forward kinematics of params, and `err` their measured errors (solve() has
+// both at hand for the final pose).
 bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
-                   Workspace& ws, const double* params) {
+                   Workspace& ws, const double* params, const GoalErrors& err) {
   if (goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
       resolve_effector(chain, goals[0].effector) == chain.joint_count()) {
     const double dist = glm::length(goals[0].target_position - chain.root_in_base());
     const double best = dist - chain.total_length();
-    if (best > options.position_tolerance) {
-      forward_kinematics(chain, params, ws);
-      const double reached = glm::length(goals[0].target_position - ws.tip);
-      return reached <= best + options.position_tolerance;
-    }
+    if (best > options.position_tolerance) return err.max_position <= best + options.position_tolerance;
   }
   if (chain.any_limits()) return false;
   const int rows = 3 * goals.size;
-  forward_kinematics(chain, params, ws);
   compute_dof_axes(chain, params, ws);
   auto J = ws.jacobian.topRows(rows);
   auto e = ws.residual.head(rows);
-  const GoalErrors err = evaluate_goals(chain, goals, ws, e);
+  evaluate_goals(chain, goals, ws, e);
   compute_jacobian(chain, goals, ws, J);
   ws.gradient.noalias() = J.transpose() * e;
   const double scale = chain.total_length() * err.combined;
@@ -165,7 +162,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (result.reason != TerminationReason::kInvalidInput) {
     if (err.within(options))
       result.reason = TerminationReason::kConverged;
-    else if (is_best_reach(chain, goals, options, ws, p))
+    else if (is_best_reach(chain, goals, options, ws, p, err))
       result.reason = TerminationReason::kUnreachable;
     else if (result.reason == TerminationReason::kConverged)
       result.reason = TerminationReason::kStalled;  // a claim the measurement does not confirm
