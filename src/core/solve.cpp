@@ -115,17 +115,22 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   ws.params_backup = params;
   double* p = params.data();
 
-  // The start pose: the current one (warm start) or the rest pose, made feasible.
+  // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured
+  // here unless the solver measures it itself (solver_measures_start).
   if (!options.warm_start) params.setZero();
   project_to_limits(chain, p);
-  forward_kinematics(chain, p, ws);
-  GoalErrors err = measure_goals(chain, goals, ws);
-  result.initial_error = err.combined;
-  result.initial_position_error = err.max_position;
-  result.initial_orientation_error = err.max_orientation;
-
+  GoalErrors err;
   SolverStatus status;
-  if (err.within(options)) {
+  const bool self_measured = solver_measures_start(kind);
+  if (!self_measured) {
+    forward_kinematics(chain, p, ws);
+    err = measure_goals(chain, goals, ws);
+    result.initial_error = err.combined;
+    result.initial_position_error = err.max_position;
+    result.initial_orientation_error = err.max_orientation;
+  }
+
+  if (!self_measured && err.within(options)) {
     status.reason = TerminationReason::kConverged;
   } else {
     switch (kind) {
@@ -140,13 +145,20 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
         status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
     }
   }
+  if (self_measured) {
+    result.initial_error = status.start.combined;
+    result.initial_position_error = status.start.max_position;
+    result.initial_orientation_error = status.start.max_orientation;
+  }
   result.iterations = status.iterations;
   result.reason = status.reason;
   result.message = status.message;
 
+  bool restored = false;
   if (status.reason == TerminationReason::kInvalidInput || !params.allFinite()) {
     // Nothing non-finite ever reaches the caller: the pose goes back to what it was.
     params = ws.params_backup;
+    restored = true;
     if (status.reason != TerminationReason::kInvalidInput) {
       result.reason = TerminationReason::kStalled;
       result.message = Message::format("%s produced a non-finite pose; the input pose was kept",
@@ -154,8 +166,15 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     }
   }
 
-  forward_kinematics(chain, p, ws);
-  err = measure_goals(chain, goals, ws);
+  // The final pose's errors: the solver's own measurement when it is of exactly these params and
+  // within tolerance (nothing more to classify), else measured here.
+  const bool trust_final = status.final_measured && !restored && status.final.within(options);
+  if (trust_final) {
+    err = status.final;
+  } else {
+    forward_kinematics(chain, p, ws);
+    err = measure_goals(chain, goals, ws);
+  }
   result.final_error = err.combined;
   result.final_position_error = err.max_position;
   result.final_orientation_error = err.max_orientation;

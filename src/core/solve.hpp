@@ -14,6 +14,7 @@ namespace ikchain {
 // Moves `params` (joint parameters, chain.dof_count() entries; see chain.hpp) toward the goals.
 // On kInvalidInput params are untouched and result.message names the bad field. Never allocates
 // when workspace.fits(chain, goals.size); never throws; never writes a non-finite value to params.
+// The workspace's contents afterwards are scratch (call forward_kinematics() for the final pose's frames).
 SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals,
                   const SolverOptions& options, Workspace& workspace, Eigen::Ref<Eigen::VectorXd> params);
 

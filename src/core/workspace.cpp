@@ -13,6 +13,8 @@ void Workspace::reset(const Chain& chain, int goals) {
   joint_orientations.assign(joints, glm::dquat(1, 0, 0, 0));
   joint_pre_rotations.assign(joints, glm::dquat(1, 0, 0, 0));
   dof_axes.assign(dofs, glm::dvec3(0.0));
+  trial_joint_origins.assign(joints, glm::dvec3(0.0));
+  trial_dof_axes.assign(dofs, glm::dvec3(0.0));
   jacobian.setZero(rows, dofs);
   residual.setZero(rows);
   residual_trial.setZero(rows);

@@ -4,9 +4,11 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 #include <string>
 
 #include "alloc_counter.hpp"
+#include "core/kinematics.hpp"
 #include "test_util.hpp"
 
 namespace ikchain {
@@ -149,6 +151,42 @@ TEST_P(SolveValidity, RejectionAllocatesNothing) {
   const SolveResult r = solve(GetParam(), chain, g, options, ws, p);
   EXPECT_EQ(test::allocation_count(), before);
   EXPECT_EQ(r.reason, TerminationReason::kInvalidInput);
+}
+
+// The errors a result reports are those of the start pose and of the returned params, measured
+// by forward kinematics here, whichever of solve() or the solver measured them (DLS measures its
+// own: solver_measures_start). Warm and rest starts, met and unmet goals, one and two goals.
+TEST_P(SolveValidity, ReportedErrorsMatchForwardKinematics) {
+  const bool two_goals_allowed = GetParam() != SolverKind::kTwoBone;
+  const Chain c = two_goals_allowed ? test::make_ball_chain(4) : chain;
+  Workspace w(c, 2);
+  std::mt19937 rng(21);
+  auto expect_errors = [&](const std::vector<Goal>& g, const Eigen::VectorXd& pose, double combined,
+                           double position, double orientation, const char* which) {
+    Workspace fk(c, 2);
+    forward_kinematics(c, pose.data(), fk);
+    const GoalErrors e = measure_goals(c, g, fk);
+    const double scale = 1e-12 * (1.0 + e.combined);
+    EXPECT_NEAR(combined, e.combined, scale) << which;
+    EXPECT_NEAR(position, e.max_position, scale) << which;
+    EXPECT_NEAR(orientation, e.max_orientation, scale) << which;
+  };
+  for (int trial = 0; trial < 6; ++trial) {
+    SolverOptions o = options;
+    o.warm_start = trial % 2 == 0;
+    o.max_iterations = trial < 2 ? 1 : 100;  // stopped early (unmet) or run to convergence
+    const Eigen::VectorXd start = test::random_params(c, rng, 1.0);
+    std::vector<Goal> g{Goal::position(test::tip_of(c, test::random_params(c, rng)))};
+    if (trial >= 4 && two_goals_allowed)
+      g.push_back(Goal::orientation(glm::angleAxis(0.3, glm::dvec3(0, 0, 1)), 0, 0.5));
+    Eigen::VectorXd p = start;
+    const SolveResult r = solve(GetParam(), c, g, o, w, p);
+    ASSERT_TRUE(r.pose_usable) << r.message.c_str();
+    const Eigen::VectorXd expected_start = o.warm_start ? start : Eigen::VectorXd::Zero(c.dof_count());
+    expect_errors(g, expected_start, r.initial_error, r.initial_position_error, r.initial_orientation_error,
+                  "initial");
+    expect_errors(g, p, r.final_error, r.final_position_error, r.final_orientation_error, "final");
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, SolveValidity,

@@ -136,10 +136,13 @@ class SinglePositionModel {
   // costs iterations, so it is used only when every joint moving the effector is a hinge.
   bool has_acceleration() const { return all_hinges_; }
 
-  // Forward kinematics of joints 0..effector-1: joint origins and world DOF axes into the workspace
-  // (the same values forward_kinematics + compute_dof_axes give), the weighted residual into the
-  // trial slot. Returns the cost 0.5 * w * |target - effector|^2.
+  // Forward kinematics of joints 0..effector-1: joint origins and world DOF axes into the
+  // workspace's trial buffers (the same values forward_kinematics + compute_dof_axes give), the
+  // weighted residual into the trial slot; accept() makes them the current pose's. Returns the
+  // cost 0.5 * w * |target - effector|^2.
   double evaluate(const double* params) {
+    glm::dvec3* const joint_origins = ws_.trial_joint_origins.data();
+    glm::dvec3* const dof_axes = ws_.trial_dof_axes.data();
     // Plain scalar quaternion arithmetic: about half the instructions of the glm expressions.
     Quat q{1.0, 0.0, 0.0, 0.0};  // orientation Q_{i-1}
     glm::dvec3 origin(0.0);
@@ -154,17 +157,17 @@ class SinglePositionModel {
         double s, c;
         so3::fast_sincos(0.5 * params[o], s, c);
         q = multiply_axis_angle(pre, axis, c, s);
-        ws_.dof_axes[o] = rotate_sparse(pre, axis);
+        dof_axes[o] = rotate_sparse(pre, axis);
       } else {
         const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
         const glm::dquat motion = so3::exp(r);
         q = multiply(pre, Quat{motion.w, motion.x, motion.y, motion.z});
         const glm::dmat3 jl = so3::left_jacobian(r);
-        for (int d = 0; d < 3; ++d) ws_.dof_axes[o + d] = rotate(pre, jl[d]);
+        for (int d = 0; d < 3; ++d) dof_axes[o + d] = rotate(pre, jl[d]);
       }
       // No per-joint renormalisation (unlike forward_kinematics): products of unit quaternions
       // drift by ~1e-16 per joint, far below any tolerance even at 100 joints.
-      ws_.joint_origins[i] = origin;
+      joint_origins[i] = origin;
     }
     const glm::dvec3& next = effector_ < chain_.joint_count() ? chain_.offset_translation(effector_)
                                                               : chain_.tip_offset();
@@ -175,17 +178,27 @@ class SinglePositionModel {
     return cost_trial_;
   }
 
+  // The last evaluate()d pose becomes the current one (its frames swap in: pointers, no copy).
   void accept() {
+    ws_.joint_origins.swap(ws_.trial_joint_origins);
+    ws_.dof_axes.swap(ws_.trial_dof_axes);
     e_ = e_trial_;
     effector_position_ = effector_trial_;
     distance_ = std::sqrt(2.0 * cost_trial_) / sqrt_weight_;
     cost_ = cost_trial_;
   }
   double cost() const { return cost_; }
+  GoalErrors errors() const {
+    GoalErrors out;
+    out.cost = cost_;
+    out.combined = std::sqrt(2.0 * cost_);
+    out.max_position = distance_;
+    return out;
+  }
   bool converged(const SolverOptions& o) const { return distance_ <= o.position_tolerance; }
   double residual_norm() const { return e_.norm(); }
 
-  // J at the accepted pose (the last evaluate()d pose must be the accepted one): column j =
+  // J at the accepted pose (trials evaluated since leave it alone): column j =
   // sqrt(w) * axis_j x (effector - o_joint(j)), stored in the top 3 rows of ws.jacobian, and the
   // Gram matrix J J^T (3x3) accumulated in the same pass.
   void linearize(const double* /*params*/) {
@@ -363,6 +376,7 @@ class GoalModel {
     errors_ = errors_trial_;
   }
   double cost() const { return errors_.cost; }
+  const GoalErrors& errors() const { return errors_; }
   bool converged(const SolverOptions& o) const { return errors_.within(o); }
   double residual_norm() const { return ws_.residual.head(m_).norm(); }
 
