@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/quat_ops.hpp"
 #include "core/so3.hpp"
 
 namespace ikchain {
@@ -41,6 +42,8 @@ Message ChainBuilder::build(Chain& out) const {
   c.rest_rotations_.resize(n);
   c.rest_identity_.resize(n);
   c.hinge_axes_.resize(n);
+  c.offset_directions_.resize(n);
+  c.hinge_axis_directions_.resize(n);
   c.limits_.resize(n);
   c.bone_lengths_.resize(n);
 
@@ -90,10 +93,15 @@ Message ChainBuilder::build(Chain& out) const {
     const glm::dquat& r = c.rest_rotations_[i];
     c.rest_identity_[i] = (r.w == 1.0 && r.x == 0.0 && r.y == 0.0 && r.z == 0.0) ? 1 : 0;
     c.hinge_axes_[i] = axis;
+    c.offset_directions_[i] = quat_ops::direction_code(j.offset_translation);
+    c.hinge_axis_directions_[i] = quat_ops::direction_code(axis);
     c.limits_[i] = l;
   }
   c.dof_count_ = dofs;
   c.tip_offset_ = tip_offset_;
+  c.tip_direction_ = quat_ops::direction_code(tip_offset_);
+  c.all_hinges_ = true;
+  for (int i = 0; i < n; ++i) c.all_hinges_ = c.all_hinges_ && c.joint_type(i) == JointType::kHinge;
   double total = 0.0;
   for (int i = 0; i < n; ++i) {
     const glm::dvec3& next = (i + 1 < n) ? c.offset_translations_[i + 1] : tip_offset_;

@@ -87,6 +87,13 @@ class Chain {
   // True when rest_rotation(i) is exactly the identity (FK skips the product).
   bool rest_is_identity(int i) const { return rest_identity_[i] != 0; }
   const glm::dvec3& hinge_axis(int i) const { return hinge_axes_[i]; }
+  // Direction codes (quat_ops::Direction: along x / y / z / general) of offset_translation(i),
+  // hinge_axis(i) and tip_offset(), for FK's sparse fast paths.
+  uint8_t offset_direction(int i) const { return offset_directions_[i]; }
+  uint8_t hinge_axis_direction(int i) const { return hinge_axis_directions_[i]; }
+  uint8_t tip_direction() const { return tip_direction_; }
+  // True when every joint is a hinge (the Jacobian solvers' step needs no rotation-vector algebra).
+  bool all_hinges() const { return all_hinges_; }
   const JointLimits& limits(int i) const { return limits_[i]; }
   bool has_limits(int i) const;
   bool any_limits() const { return any_limits_; }
@@ -111,6 +118,10 @@ class Chain {
   std::vector<glm::dquat> rest_rotations_;
   std::vector<uint8_t> rest_identity_;
   std::vector<glm::dvec3> hinge_axes_;
+  std::vector<uint8_t> offset_directions_;
+  std::vector<uint8_t> hinge_axis_directions_;
+  uint8_t tip_direction_ = 0;
+  bool all_hinges_ = false;
   std::vector<JointLimits> limits_;
   std::vector<double> bone_lengths_;
   glm::dvec3 tip_offset_{0.0};

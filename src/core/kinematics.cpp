@@ -14,7 +14,7 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
   glm::dvec3 origin(0.0);
   Quat orientation{1.0, 0.0, 0.0, 0.0};
   for (int i = 0; i < n; ++i) {
-    origin += rotate_sparse(orientation, chain.offset_translation(i));
+    origin += rotate_coded(orientation, chain.offset_translation(i), Direction(chain.offset_direction(i)));
     const Quat pre = chain.rest_is_identity(i) ? orientation
                                                : multiply(orientation, from_glm(chain.rest_rotation(i)));
     // Products of unit quaternions stay unit to ~1e-16 per joint in double precision (1e-14 over
@@ -22,7 +22,7 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
     if (chain.joint_type(i) == JointType::kHinge) {
       double s, c;
       so3::fast_sincos(0.5 * params[chain.dof_offset(i)], s, c);
-      orientation = multiply_axis_angle(pre, chain.hinge_axis(i), c, s);
+      orientation = multiply_axis_angle(pre, chain.hinge_axis(i), Direction(chain.hinge_axis_direction(i)), c, s);
     } else {
       orientation = multiply(pre, from_glm(joint_motion(chain, i, params)));
     }
@@ -30,7 +30,7 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
     ws.joint_pre_rotations[i] = to_glm(pre);
     ws.joint_orientations[i] = to_glm(orientation);
   }
-  ws.tip = origin + rotate_sparse(orientation, chain.tip_offset());
+  ws.tip = origin + rotate_coded(orientation, chain.tip_offset(), Direction(chain.tip_direction()));
 }
 
 int resolve_effector(const Chain& chain, int effector) {

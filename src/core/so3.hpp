@@ -4,8 +4,6 @@
 // eq. (143)-(146) for the SO(3) left Jacobian.
 #pragma once
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -118,16 +116,14 @@ inline void fast_sincos(double x, double& sin_x, double& cos_x) {
                                  z * (2.48015872894767294178e-05 +
                                       z * (-2.75573143513906633035e-07 +
                                            z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
-  // Quadrant qi mod 4 = 0: (s, c); 1: (c, -s); 2: (-s, -c); 3: (-c, s), by bit masks: odd quadrants
-  // swap, the sign of sin flips in quadrants 2-3 (bit 1 of qi), the sign of cos in 1-2 (bit 1 of qi + 1).
-  std::uint64_t bs, bc;
-  std::memcpy(&bs, &s, sizeof bs);
-  std::memcpy(&bc, &c, sizeof bc);
-  const std::uint64_t swap = 0 - static_cast<std::uint64_t>(qi & 1);
-  const std::uint64_t sin_bits = ((bs & ~swap) | (bc & swap)) ^ (static_cast<std::uint64_t>(qi & 2) << 62);
-  const std::uint64_t cos_bits = ((bc & ~swap) | (bs & swap)) ^ (static_cast<std::uint64_t>((qi + 1) & 2) << 62);
-  std::memcpy(&sin_x, &sin_bits, sizeof sin_x);
-  std::memcpy(&cos_x, &cos_bits, sizeof cos_x);
+  // Quadrant qi mod 4 = 0: (s, c); 1: (c, -s); 2: (-s, -c); 3: (-c, s), as combinations of s and
+  // c with coefficients 0 / +-1 from a table: exact (products with 0 and +-1 and sums with 0 round
+  // nothing) and branch-free.
+  static constexpr double kSinS[4] = {1.0, 0.0, -1.0, 0.0};
+  static constexpr double kSinC[4] = {0.0, 1.0, 0.0, -1.0};
+  const int k = static_cast<int>(qi & 3);
+  sin_x = kSinS[k] * s + kSinC[k] * c;
+  cos_x = kSinS[k] * c - kSinC[k] * s;
 }
 
 inline bool finite(const glm::dvec3& v) {

@@ -147,31 +147,32 @@ class SinglePositionModel {
     Quat q{1.0, 0.0, 0.0, 0.0};  // orientation Q_{i-1}
     glm::dvec3 origin(0.0);
     for (int i = 0; i < effector_; ++i) {
-      origin += rotate_sparse(q, chain_.offset_translation(i));
-      const glm::dquat& rest = chain_.rest_rotation(i);
+      origin += rotate_coded(q, chain_.offset_translation(i), Direction(chain_.offset_direction(i)));
       // Identity rest rotations (most rigs' hinge chains) skip a quaternion product.
-      const Quat pre = rest.w == 1.0 ? q : multiply(q, Quat{rest.w, rest.x, rest.y, rest.z});
+      const Quat pre = chain_.rest_is_identity(i) ? q : multiply(q, from_glm(chain_.rest_rotation(i)));
       const int o = chain_.dof_offset(i);
       if (chain_.joint_type(i) == JointType::kHinge) {
         const glm::dvec3& axis = chain_.hinge_axis(i);
+        const Direction dir = Direction(chain_.hinge_axis_direction(i));
         double s, c;
         so3::fast_sincos(0.5 * params[o], s, c);
-        q = multiply_axis_angle(pre, axis, c, s);
-        dof_axes[o] = rotate_sparse(pre, axis);
+        q = multiply_axis_angle(pre, axis, dir, c, s);
+        dof_axes[o] = rotate_coded(pre, axis, dir);
       } else {
         const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
-        const glm::dquat motion = so3::exp(r);
-        q = multiply(pre, Quat{motion.w, motion.x, motion.y, motion.z});
+        q = multiply(pre, from_glm(so3::exp(r)));
         const glm::dmat3 jl = so3::left_jacobian(r);
         for (int d = 0; d < 3; ++d) dof_axes[o + d] = rotate(pre, jl[d]);
       }
-      // No per-joint renormalisation (unlike forward_kinematics): products of unit quaternions
+      // No per-joint renormalisation (as in forward_kinematics): products of unit quaternions
       // drift by ~1e-16 per joint, far below any tolerance even at 100 joints.
       joint_origins[i] = origin;
     }
-    const glm::dvec3& next = effector_ < chain_.joint_count() ? chain_.offset_translation(effector_)
-                                                              : chain_.tip_offset();
-    effector_trial_ = origin + rotate_sparse(q, next);
+    if (effector_ < chain_.joint_count())
+      effector_trial_ = origin + rotate_coded(q, chain_.offset_translation(effector_),
+                                              Direction(chain_.offset_direction(effector_)));
+    else
+      effector_trial_ = origin + rotate_coded(q, chain_.tip_offset(), Direction(chain_.tip_direction()));
     const glm::dvec3 d = target_ - effector_trial_;
     e_trial_ = Eigen::Vector3d(d.x, d.y, d.z) * sqrt_weight_;
     cost_trial_ = 0.5 * e_trial_.squaredNorm();
@@ -205,22 +206,29 @@ class SinglePositionModel {
     double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0;
     double* col = ws_.jacobian.data();
     const Eigen::Index stride = ws_.jacobian.rows();
-    for (int i = 0; i < effector_; ++i) {
-      const glm::dvec3 arm = (effector_position_ - ws_.joint_origins[i]) * sqrt_weight_;
-      const int o = chain_.dof_offset(i);
-      const int cnt = chain_.dof_count_of(i);
-      for (int d = 0; d < cnt; ++d) {
-        const glm::dvec3 c = glm::cross(ws_.dof_axes[o + d], arm);
-        double* cj = col + stride * (o + d);
-        cj[0] = c.x;
-        cj[1] = c.y;
-        cj[2] = c.z;
-        a00 += c.x * c.x;
-        a01 += c.x * c.y;
-        a02 += c.x * c.z;
-        a11 += c.y * c.y;
-        a12 += c.y * c.z;
-        a22 += c.z * c.z;
+    const glm::dvec3* origins = ws_.joint_origins.data();
+    const glm::dvec3* axes = ws_.dof_axes.data();
+    auto column = [&](int dof, const glm::dvec3& arm) {
+      const glm::dvec3 c = glm::cross(axes[dof], arm);
+      double* cj = col + stride * dof;
+      cj[0] = c.x;
+      cj[1] = c.y;
+      cj[2] = c.z;
+      a00 += c.x * c.x;
+      a01 += c.x * c.y;
+      a02 += c.x * c.z;
+      a11 += c.y * c.y;
+      a12 += c.y * c.z;
+      a22 += c.z * c.z;
+    };
+    if (all_hinges_) {  // DOF i is joint i: no per-joint lookups
+      for (int i = 0; i < effector_; ++i) column(i, (effector_position_ - origins[i]) * sqrt_weight_);
+    } else {
+      for (int i = 0; i < effector_; ++i) {
+        const glm::dvec3 arm = (effector_position_ - origins[i]) * sqrt_weight_;
+        const int o = chain_.dof_offset(i);
+        const int cnt = chain_.dof_count_of(i);
+        for (int d = 0; d < cnt; ++d) column(o + d, arm);
       }
     }
     gram_ << a00, a01, a02, a01, a11, a12, a02, a12, a22;
@@ -502,8 +510,12 @@ inline void make_trial(const Chain& chain, const SolverOptions& o, const double*
                        Workspace& ws) {
   const int n = chain.dof_count();
   double* trial = ws.params_trial.data();
-  std::copy(params, params + n, trial);
-  apply_step(chain, step, o.max_step_angle, trial);
+  if (chain.all_hinges() && !(o.max_step_angle > 0.0)) {
+    for (int j = 0; j < n; ++j) trial[j] = params[j] + step[j];  // apply_step's hinge case, uncapped
+  } else {
+    std::copy(params, params + n, trial);
+    apply_step(chain, step, o.max_step_angle, trial);
+  }
   project_to_limits(chain, trial);
 }
 
