@@ -36,14 +36,8 @@ Message ChainBuilder::build(Chain& out) const {
 
   Chain c;
   c.joint_count_ = n;
-  c.types_.resize(n);
-  c.dof_offsets_.resize(n);
-  c.offset_translations_.resize(n);
+  c.joints_.resize(n);
   c.rest_rotations_.resize(n);
-  c.rest_identity_.resize(n);
-  c.hinge_axes_.resize(n);
-  c.offset_directions_.resize(n);
-  c.hinge_axis_directions_.resize(n);
   c.limits_.resize(n);
   c.bone_lengths_.resize(n);
 
@@ -85,16 +79,17 @@ Message ChainBuilder::build(Chain& out) const {
     } else {
       return Message::format("joint %d: unknown joint type", i);
     }
-    c.types_[i] = static_cast<uint8_t>(j.type);
-    c.dof_offsets_[i] = dofs;
+    Chain::JointRecord& rec = c.joints_[i];
+    rec.type = static_cast<uint8_t>(j.type);
+    rec.dof_offset = dofs;
     dofs += j.type == JointType::kBall ? 3 : 1;
-    c.offset_translations_[i] = j.offset_translation;
+    rec.offset_translation = j.offset_translation;
     c.rest_rotations_[i] = glm::normalize(j.rest_rotation);
     const glm::dquat& r = c.rest_rotations_[i];
-    c.rest_identity_[i] = (r.w == 1.0 && r.x == 0.0 && r.y == 0.0 && r.z == 0.0) ? 1 : 0;
-    c.hinge_axes_[i] = axis;
-    c.offset_directions_[i] = quat_ops::direction_code(j.offset_translation);
-    c.hinge_axis_directions_[i] = quat_ops::direction_code(axis);
+    rec.rest_identity = (r.w == 1.0 && r.x == 0.0 && r.y == 0.0 && r.z == 0.0) ? 1 : 0;
+    rec.hinge_axis = axis;
+    rec.offset_direction = quat_ops::direction_code(j.offset_translation);
+    rec.hinge_axis_direction = quat_ops::direction_code(axis);
     c.limits_[i] = l;
   }
   c.dof_count_ = dofs;
@@ -104,7 +99,7 @@ Message ChainBuilder::build(Chain& out) const {
   for (int i = 0; i < n; ++i) c.all_hinges_ = c.all_hinges_ && c.joint_type(i) == JointType::kHinge;
   double total = 0.0;
   for (int i = 0; i < n; ++i) {
-    const glm::dvec3& next = (i + 1 < n) ? c.offset_translations_[i + 1] : tip_offset_;
+    const glm::dvec3& next = (i + 1 < n) ? c.joints_[i + 1].offset_translation : tip_offset_;
     c.bone_lengths_[i] = glm::length(next);
     total += c.bone_lengths_[i];
   }

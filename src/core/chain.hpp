@@ -79,18 +79,18 @@ class Chain {
   int dof_count() const { return dof_count_; }
   int effector_count() const { return joint_count_; }  // effectors 1..n
 
-  JointType joint_type(int i) const { return static_cast<JointType>(types_[i]); }
-  int dof_offset(int i) const { return dof_offsets_[i]; }  // first param index of joint i
+  JointType joint_type(int i) const { return static_cast<JointType>(joints_[i].type); }
+  int dof_offset(int i) const { return joints_[i].dof_offset; }  // first param index of joint i
   int dof_count_of(int i) const { return joint_type(i) == JointType::kBall ? 3 : 1; }
-  const glm::dvec3& offset_translation(int i) const { return offset_translations_[i]; }
+  const glm::dvec3& offset_translation(int i) const { return joints_[i].offset_translation; }
   const glm::dquat& rest_rotation(int i) const { return rest_rotations_[i]; }
   // True when rest_rotation(i) is exactly the identity (FK skips the product).
-  bool rest_is_identity(int i) const { return rest_identity_[i] != 0; }
-  const glm::dvec3& hinge_axis(int i) const { return hinge_axes_[i]; }
+  bool rest_is_identity(int i) const { return joints_[i].rest_identity != 0; }
+  const glm::dvec3& hinge_axis(int i) const { return joints_[i].hinge_axis; }
   // Direction codes (quat_ops::Direction: along x / y / z / general) of offset_translation(i),
   // hinge_axis(i) and tip_offset(), for FK's sparse fast paths.
-  uint8_t offset_direction(int i) const { return offset_directions_[i]; }
-  uint8_t hinge_axis_direction(int i) const { return hinge_axis_directions_[i]; }
+  uint8_t offset_direction(int i) const { return joints_[i].offset_direction; }
+  uint8_t hinge_axis_direction(int i) const { return joints_[i].hinge_axis_direction; }
   uint8_t tip_direction() const { return tip_direction_; }
   // True when every joint is a hinge (the Jacobian solvers' step needs no rotation-vector algebra).
   bool all_hinges() const { return all_hinges_; }
@@ -105,21 +105,26 @@ class Chain {
   // Sum of bone lengths: the farthest the tip can be from the root joint's origin o_0.
   double total_length() const { return total_length_; }
   // o_0: fixed by the base, independent of the pose.
-  const glm::dvec3& root_in_base() const { return offset_translations_[0]; }
+  const glm::dvec3& root_in_base() const { return joints_[0].offset_translation; }
 
  private:
   friend class ChainBuilder;
   int joint_count_ = 0;
   int dof_count_ = 0;
   bool any_limits_ = false;
-  std::vector<uint8_t> types_;
-  std::vector<int> dof_offsets_;
-  std::vector<glm::dvec3> offset_translations_;
+  // What forward kinematics reads for every joint, side by side (one record, not seven arrays:
+  // the FK loops keep one base pointer instead of spilling seven).
+  struct JointRecord {
+    glm::dvec3 offset_translation{0.0};
+    glm::dvec3 hinge_axis{0.0, 0.0, 1.0};
+    int dof_offset = 0;
+    uint8_t type = 0;
+    uint8_t rest_identity = 0;
+    uint8_t offset_direction = 0;
+    uint8_t hinge_axis_direction = 0;
+  };
+  std::vector<JointRecord> joints_;
   std::vector<glm::dquat> rest_rotations_;
-  std::vector<uint8_t> rest_identity_;
-  std::vector<glm::dvec3> hinge_axes_;
-  std::vector<uint8_t> offset_directions_;
-  std::vector<uint8_t> hinge_axis_directions_;
   uint8_t tip_direction_ = 0;
   bool all_hinges_ = false;
   std::vector<JointLimits> limits_;

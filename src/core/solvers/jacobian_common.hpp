@@ -324,9 +324,10 @@ class SinglePositionModel {
   void apply_transpose(const Eigen::Vector3d& y, double* step) const {
     const double* col = ws_.jacobian.data();
     const Eigen::Index stride = ws_.jacobian.rows();
+    const double y0 = y[0], y1 = y[1], y2 = y[2];  // locals: stores to step[] could alias y
     for (int j = 0; j < active_dofs_; ++j) {
       const double* cj = col + stride * j;
-      step[j] = cj[0] * y[0] + cj[1] * y[1] + cj[2] * y[2];
+      step[j] = cj[0] * y0 + cj[1] * y1 + cj[2] * y2;
     }
   }
 
