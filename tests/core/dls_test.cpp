@@ -63,49 +63,6 @@ TEST(DLS, FastPathAgreesWithGenericPath) {
                                              test::PathAgreement::kBothConverge);
 }
 
-// The straight rest pose of the benchmark chain (hinges alternating about z and y, bones along y)
-// is rank-deficient: the y hinges turn about their own bones. A bent pose is not. DLS bends such a
-// start once (iteration 1), deterministically, and still meets every target; with joint limits or
-// a target beyond reach it does not bend (the solve starts straight and stays reproducible).
-TEST(DLS, RankDeficientStartIsBentOnceAndSolved) {
-  const Chain chain = test::make_hinge_chain(10);
-  Workspace ws(chain, 1);
-  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(chain.dof_count());
-  std::mt19937 rng(31);
-  const Goal goal = Goal::position(test::tip_of(chain, test::random_params(chain, rng)));
-  jacobian::SinglePositionModel model(chain, goal, ws);
-  model.evaluate(rest.data());
-  model.accept();
-  model.linearize(rest.data());
-  EXPECT_TRUE(model.rank_deficient());
-  const Eigen::VectorXd bent = test::random_params(chain, rng, 1.0);
-  model.evaluate(bent.data());
-  model.accept();
-  model.linearize(bent.data());
-  EXPECT_FALSE(model.rank_deficient());
-
-  const SolverOptions o = options_for(chain);
-  for (int t = 0; t < 50; ++t) {
-    const Goal g = Goal::position(test::tip_of(chain, test::random_params(chain, rng)));
-    Eigen::VectorXd first = test::random_params(chain, rng), second = test::random_params(chain, rng);
-    const SolveResult a = solve(kKind, chain, {&g, 1}, o, ws, first);
-    const SolveResult b = solve(kKind, chain, {&g, 1}, o, ws, second);
-    EXPECT_EQ(a.reason, TerminationReason::kConverged);
-    EXPECT_LE(glm::length(test::tip_of(chain, first) - g.target_position), o.position_tolerance);
-    EXPECT_EQ(first, second);  // bitwise: the bend is the same every time
-    EXPECT_EQ(a.iterations, b.iterations);
-    EXPECT_GE(a.iterations, 2);  // the bend, then at least one step
-  }
-
-  // A budget of one iteration: the bend is not made, the one step is a plain step from rest.
-  SolverOptions one = o;
-  one.max_iterations = 1;
-  Eigen::VectorXd p = rest;
-  const SolveResult r = solve(kKind, chain, {&goal, 1}, one, ws, p);
-  EXPECT_EQ(r.iterations, 1);
-  EXPECT_LE(r.final_error, r.initial_error);
-}
-
 TEST(DLS, SolveAllocatesNothing) { test::expect_jacobian_solves_allocate_nothing(kKind, options_for); }
 
 TEST(DLS, InvalidInputLeavesParamsUntouched) {

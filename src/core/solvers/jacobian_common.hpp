@@ -237,13 +237,6 @@ class SinglePositionModel {
 
   // |J^T e|^2 = e^T (J J^T) e: zero at a stationary point (e.g. a straight chain pulled along itself).
   double gradient_norm2() const { return e_.dot(gram_ * e_); }
-  // J (at the accepted pose) moves the effector in fewer than 3 independent directions, to
-  // rounding: det(J J^T) <= 1e-6 trace^3 (det is the product of the eigenvalues, so one of them is
-  // below ~4e-6 trace). E.g. a straight chain whose hinges alternate about the bone and across it.
-  bool rank_deficient() const {
-    const double tr = gram_.trace();
-    return gram_.determinant() <= 1e-6 * tr * tr * tr;
-  }
   // sqrt(trace(J J^T)) = |J|_F, the scale gradient_norm2 is judged against.
   double jacobian_norm() const { return std::sqrt(std::max(gram_.trace(), 0.0)); }
 
@@ -425,9 +418,6 @@ class GoalModel {
 
   double gradient_norm2() const { return gradient_norm2_; }
   double jacobian_norm() const { return std::sqrt(std::max(trace_, 0.0)); }
-  // Not judged for general goal sets: their Jacobians are rank-deficient by construction as often
-  // as not (DOFs past an effector, orientation rows of a position-only joint).
-  bool rank_deficient() const { return false; }
   // No second-order correction for general goals (orientation rows have other curvature).
   bool has_acceleration() const { return false; }
   double acceleration(const double*, double*) const { return 0.0; }
@@ -547,12 +537,11 @@ inline bool target_beyond_reach(const Chain& chain, Span<const Goal> goals) {
          glm::length(goals[0].target_position - chain.root_in_base()) >= chain.total_length();
 }
 
-// Adds a fixed bend of every active DOF to params: magnitude * sin(golden angle * (j + 1))
-// radians, i.e. up to `magnitude` with signs alternating irregularly (deterministic).
-inline void kick(const Chain& chain, int active_dofs, Workspace& ws, double* params, double magnitude = 0.15) {
+// Adds the kick (radians, ~0.1-0.2 per DOF, signs alternating irregularly) to params.
+inline void kick(const Chain& chain, int active_dofs, Workspace& ws, double* params) {
   double* step = ws.dof_vec_b.data();
   for (int j = 0; j < chain.dof_count(); ++j)
-    step[j] = j < active_dofs ? magnitude * std::sin(2.399963 * (j + 1)) : 0.0;  // golden angle
+    step[j] = j < active_dofs ? 0.15 * std::sin(2.399963 * (j + 1)) : 0.0;  // golden angle
   apply_step(chain, step, 0.0, params);
   project_to_limits(chain, params);
 }
