@@ -248,33 +248,47 @@ class SinglePositionModel {
     const Eigen::Vector3d y = solve_spd3(m, e_);
     apply_transpose(y, step);
     damped_ = m;
-    achieved_ = e_ - mu * y;  // J h
     return 0.5 * (e_.squaredNorm() - mu * mu * y.squaredNorm());
+  }
+
+  // The effector's second derivative along a joint-space direction h at the accepted pose,
+  // p'' = d^2 p(theta + t h) / dt^2 at t = 0, exact for hinge chains (see has_acceleration). With
+  // a_k the world axis of DOF k, c_k = a_k x (p - o_k) (J's column without the weight) and
+  // W_k = sum_{j<k} h_j a_j (the angular velocity of joint k's frame), differentiating
+  // p' = sum_k h_k c_k gives sum_k h_k [W_k x c_k + a_k x sum_{j>=k} h_j c_j]; both double sums
+  // run over the same pairs, so
+  //   p'' = sum_k (2 W_k + h_k a_k) x (h_k c_k),
+  // one cross product per DOF (O(n)).
+  glm::dvec3 effector_second_derivative(const double* h) const {
+    const double* col = ws_.jacobian.data();
+    const Eigen::Index stride = ws_.jacobian.rows();
+    const glm::dvec3* axes = ws_.dof_axes.data();
+    double w2x = 0.0, w2y = 0.0, w2z = 0.0;  // 2 W_k
+    double px = 0.0, py = 0.0, pz = 0.0;
+    for (int k = 0; k < active_dofs_; ++k) {
+      const double hk = h[k];
+      const double* ck = col + stride * k;  // sqrt(w) c_k: the weight is divided out once, below
+      const double ax = hk * axes[k].x, ay = hk * axes[k].y, az = hk * axes[k].z;
+      const double tx = w2x + ax, ty = w2y + ay, tz = w2z + az;
+      const double cx = hk * ck[0], cy = hk * ck[1], cz = hk * ck[2];
+      px += ty * cz - tz * cy;
+      py += tz * cx - tx * cz;
+      pz += tx * cy - ty * cx;
+      w2x += ax + ax;
+      w2y += ay + ay;
+      w2z += az + az;
+    }
+    return glm::dvec3(px, py, pz) / sqrt_weight_;
   }
 
   // Second-order ("geodesic acceleration") correction of the last damped_step h (Transtrum &
   // Sethna, "Improvements to the Levenberg-Marquardt algorithm for nonlinear least-squares
-  // minimization", 2012): the effector's second derivative along h, p'' = d^2 p(theta + t h)/dt^2,
-  // is exact for rotational joints in O(n),
-  //   p'' = sum_k h_k [ W_k x c_k + a_k x (J h - V_k) ],
-  //   W_k = sum_{j<k} h_j a_j (angular velocity of joint k's frame), V_k = sum_{j<k} h_j c_j,
-  // c_k = a_k x (p - o_k), for hinge chains (see has_acceleration). The correction h2 = -(J^T J + mu)^-1 J^T p''/2
-  // cancels the curvature of the arcs the effector moves on, which is what makes a Gauss-Newton
-  // step fall short far from the goal. Writes h2 into `correction`; returns |h2|.
+  // minimization", 2012): h2 = -(J^T J + mu)^-1 J^T p''/2 with p'' the effector's second
+  // derivative along h (above). It cancels the curvature of the arcs the effector moves on, which
+  // is what makes a Gauss-Newton step fall short far from the goal. Writes h2 into `correction`;
+  // returns |h2|.
   double acceleration(const double* h, double* correction) const {
-    const double inv_sw = 1.0 / sqrt_weight_;
-    const glm::dvec3 jh(achieved_[0] * inv_sw, achieved_[1] * inv_sw, achieved_[2] * inv_sw);
-    glm::dvec3 w(0.0), v(0.0), pdd(0.0);
-    const double* col = ws_.jacobian.data();
-    const Eigen::Index stride = ws_.jacobian.rows();
-    for (int j = 0; j < active_dofs_; ++j) {
-      const double* cj = col + stride * j;
-      const glm::dvec3 c(cj[0] * inv_sw, cj[1] * inv_sw, cj[2] * inv_sw);
-      const glm::dvec3& a = ws_.dof_axes[j];
-      pdd += h[j] * (glm::cross(w, c) + glm::cross(a, jh - v));
-      w += h[j] * a;
-      v += h[j] * c;
-    }
+    const glm::dvec3 pdd = effector_second_derivative(h);
     const Eigen::Vector3d rhs = -0.5 * sqrt_weight_ * Eigen::Vector3d(pdd.x, pdd.y, pdd.z);
     const Eigen::Vector3d y = solve_spd3(damped_, rhs);
     apply_transpose(y, correction);
@@ -344,7 +358,6 @@ class SinglePositionModel {
   Eigen::Vector3d e_ = Eigen::Vector3d::Zero(), e_trial_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d gram_ = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d damped_ = Eigen::Matrix3d::Identity();  // J J^T + mu I of the last damped_step
-  Eigen::Vector3d achieved_ = Eigen::Vector3d::Zero();      // J h of the last damped_step
   Eigen::Matrix3d eigenvalues_matrix_, eigenvectors_;
   Eigen::Vector3d predicted_change_ = Eigen::Vector3d::Zero();
   bool decomposed_ = false;
