@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/kinematics.hpp"
 #include "core/quat_ops.hpp"
 #include "core/so3.hpp"
 
@@ -106,6 +107,15 @@ Message ChainBuilder::build(Chain& out) const {
   if (!(total > 1e-9)) return Message::format("zero-length chain: every bone has length 0");
   c.total_length_ = total;
   for (int i = 0; i < n; ++i) c.any_limits_ = c.any_limits_ || c.has_limits(i);
+  {
+    Workspace ws(c, 1);
+    const std::vector<double> rest(static_cast<size_t>(dofs), 0.0);
+    forward_kinematics(c, rest.data(), ws);
+    compute_dof_axes(c, rest.data(), ws);
+    c.rest_joint_origins_ = ws.joint_origins;
+    c.rest_dof_axes_ = ws.dof_axes;
+    c.rest_tip_ = ws.tip;
+  }
   out = std::move(c);
   return Message();
 }

@@ -104,6 +104,13 @@ class Chain {
   const std::vector<double>& bone_lengths() const { return bone_lengths_; }
   // Sum of bone lengths: the farthest the tip can be from the root joint's origin o_0.
   double total_length() const { return total_length_; }
+  // Forward kinematics of the rest pose (params = 0), computed once at build: joint origins, world
+  // DOF axes and tip, as forward_kinematics + compute_dof_axes give them. Every deterministic solve
+  // starts there; the Jacobian solvers copy these instead of recomputing them.
+  const std::vector<glm::dvec3>& rest_joint_origins() const { return rest_joint_origins_; }
+  const std::vector<glm::dvec3>& rest_dof_axes() const { return rest_dof_axes_; }
+  const glm::dvec3& rest_tip() const { return rest_tip_; }
+
   // o_0: fixed by the base, independent of the pose.
   const glm::dvec3& root_in_base() const { return joints_[0].offset_translation; }
 
@@ -128,6 +135,9 @@ class Chain {
   uint8_t tip_direction_ = 0;
   bool all_hinges_ = false;
   std::vector<JointLimits> limits_;
+  std::vector<glm::dvec3> rest_joint_origins_;
+  std::vector<glm::dvec3> rest_dof_axes_;
+  glm::dvec3 rest_tip_{0.0};
   std::vector<double> bone_lengths_;
   glm::dvec3 tip_offset_{0.0};
   double total_length_ = 0.0;

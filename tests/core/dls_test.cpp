@@ -102,6 +102,34 @@ TEST(DLS, EffectorSecondDerivativeMatchesFiniteDifference) {
   }
 }
 
+// A start at the rest pose copies the chain's precomputed frames instead of evaluating them: the
+// same cost and the same Jacobian as evaluating, for tip and mid-chain effectors; any other start
+// is evaluated.
+TEST(DLS, RestStartUsesPrecomputedFramesWithTheSameResult) {
+  std::mt19937 rng(43);
+  for (const Chain& chain : {test::make_hinge_chain(6), test::make_ball_chain(4)}) {
+    for (int effector : {0, 2}) {
+      const Goal goal = Goal::position(glm::dvec3(0.5, 1.5, -0.5), effector, 0.8);
+      for (bool at_rest : {true, false}) {
+        const Eigen::VectorXd start =
+            at_rest ? Eigen::VectorXd(Eigen::VectorXd::Zero(chain.dof_count())) : test::random_params(chain, rng);
+        Workspace a_ws(chain, 1), b_ws(chain, 1);
+        jacobian::SinglePositionModel a(chain, goal, a_ws), b(chain, goal, b_ws);
+        const double cost_a = a.evaluate_start(start.data());
+        const double cost_b = b.evaluate(start.data());
+        EXPECT_NEAR(cost_a, cost_b, 1e-14 * (1.0 + cost_b));
+        a.accept();
+        b.accept();
+        a.linearize(start.data());
+        b.linearize(start.data());
+        const int active = a.active_dofs();
+        EXPECT_LE((a_ws.jacobian.topLeftCorner(3, active) - b_ws.jacobian.topLeftCorner(3, active)).norm(),
+                  1e-14 * (1.0 + b_ws.jacobian.norm()));
+      }
+    }
+  }
+}
+
 TEST(DLS, SolveAllocatesNothing) { test::expect_jacobian_solves_allocate_nothing(kKind, options_for); }
 
 TEST(DLS, InvalidInputLeavesParamsUntouched) {

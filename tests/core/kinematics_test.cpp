@@ -39,6 +39,21 @@ TEST(Kinematics, RestPoseOfStraightChainIsAlongY) {
   EXPECT_EQ(c.dof_count(), 9);
 }
 
+// The rest-pose frames the chain computes at build are the forward kinematics of params = 0.
+TEST(Kinematics, ChainRestFramesAreForwardKinematicsAtZero) {
+  for (const Chain& c : {mixed_chain(), test::make_hinge_chain(7), test::make_ball_chain(4)}) {
+    Workspace ws(c, 1);
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(c.dof_count());
+    forward_kinematics(c, zero.data(), ws);
+    compute_dof_axes(c, zero.data(), ws);
+    ASSERT_EQ(c.rest_joint_origins().size(), static_cast<size_t>(c.joint_count()));
+    ASSERT_EQ(c.rest_dof_axes().size(), static_cast<size_t>(c.dof_count()));
+    for (int i = 0; i < c.joint_count(); ++i) EXPECT_EQ(c.rest_joint_origins()[i], ws.joint_origins[i]);
+    for (int d = 0; d < c.dof_count(); ++d) EXPECT_EQ(c.rest_dof_axes()[d], ws.dof_axes[d]);
+    EXPECT_EQ(c.rest_tip(), ws.tip);
+  }
+}
+
 TEST(Kinematics, HingeQuarterTurnMovesTipExactly) {
   const Chain c = test::make_hinge_chain(1, 1.0);  // one hinge about z, tip at (0,1,0)
   Eigen::VectorXd p(1);

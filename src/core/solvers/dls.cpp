@@ -46,7 +46,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
   ws.step.setZero();  // DOFs beyond the farthest effector never move
 
   // solve() leaves the start pose's measurement to this first evaluation (solver_measures_start).
-  model.evaluate(params);
+  model.evaluate_start(params);
   model.accept();
   status.start = model.errors();
   status.start_measured = true;

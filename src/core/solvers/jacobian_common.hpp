@@ -173,10 +173,20 @@ class SinglePositionModel {
                                               Direction(chain_.offset_direction(effector_)));
     else
       effector_trial_ = origin + rotate_coded(q, chain_.tip_offset(), Direction(chain_.tip_direction()));
-    const glm::dvec3 d = target_ - effector_trial_;
-    e_trial_ = Eigen::Vector3d(d.x, d.y, d.z) * sqrt_weight_;
-    cost_trial_ = 0.5 * e_trial_.squaredNorm();
-    return cost_trial_;
+    return trial_residual();
+  }
+
+  // evaluate() for the start pose: at the rest pose (every param 0, a deterministic start) the
+  // frames are the chain's, computed at build (Chain::rest_joint_origins), and only copied.
+  double evaluate_start(const double* params) {
+    for (int j = 0; j < chain_.dof_count(); ++j)
+      if (params[j] != 0.0) return evaluate(params);
+    std::copy(chain_.rest_joint_origins().begin(), chain_.rest_joint_origins().begin() + effector_,
+              ws_.trial_joint_origins.begin());
+    std::copy(chain_.rest_dof_axes().begin(), chain_.rest_dof_axes().begin() + active_dofs_,
+              ws_.trial_dof_axes.begin());
+    effector_trial_ = effector_ < chain_.joint_count() ? chain_.rest_joint_origins()[effector_] : chain_.rest_tip();
+    return trial_residual();
   }
 
   // The last evaluate()d pose becomes the current one (its frames swap in: pointers, no copy).
@@ -335,6 +345,14 @@ class SinglePositionModel {
   }
 
  private:
+  // The weighted residual and cost of effector_trial_.
+  double trial_residual() {
+    const glm::dvec3 d = target_ - effector_trial_;
+    e_trial_ = Eigen::Vector3d(d.x, d.y, d.z) * sqrt_weight_;
+    cost_trial_ = 0.5 * e_trial_.squaredNorm();
+    return cost_trial_;
+  }
+
   void apply_transpose(const Eigen::Vector3d& y, double* step) const {
     const double* col = ws_.jacobian.data();
     const Eigen::Index stride = ws_.jacobian.rows();
@@ -393,6 +411,7 @@ class GoalModel {
     errors_trial_ = evaluate_goals(chain_, goals_, ws_, ws_.residual_trial.head(m_));
     return errors_trial_.cost;
   }
+  double evaluate_start(const double* params) { return evaluate(params); }
   void accept() {
     ws_.residual.swap(ws_.residual_trial);  // swaps the buffers' pointers: no copy, no allocation
     errors_ = errors_trial_;

@@ -187,7 +187,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
   ws.step.setZero();            // the full step J+ e (DOFs beyond the farthest effector stay 0)
   ws.gradient_trial.setZero();  // the halved step actually tried
 
-  model.evaluate(params);
+  model.evaluate_start(params);
   model.accept();
   if (model.converged(o)) {
     status.reason = TerminationReason::kConverged;
