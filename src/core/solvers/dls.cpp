@@ -7,11 +7,11 @@
 // Tingleff, "Methods for Non-Linear Least Squares Problems", 2nd ed. 2004, sec. 3.2, Alg. 3.16):
 // a step is accepted only if the cost decreases; then mu *= max(1/3, 1 - (2 rho - 1)^3), where
 // rho = actual / predicted decrease, and nu = 2; else mu *= nu (but at least 1% of trace(J J^T),
-// see kRejectedMinDamping), nu *= 2 and the step is retried from the same linearisation. Good steps drive mu to dls_min_damping, i.e. to Gauss-Newton
-// steps and their quadratic convergence near the solution; bad ones shrink the step towards a
-// short gradient step. So one solve needs few iterations, and each costs one FK (plus one
-// Jacobian when accepted): for one position goal both fused in O(n) with 3x3 algebra
-// (jacobian_common.hpp).
+// see kRejectedMinDamping), nu *= 2 and the step is retried from the same linearisation. Good
+// steps drive mu to dls_min_damping, i.e. to Gauss-Newton steps and their quadratic convergence
+// near the solution; bad ones shrink the step towards a short gradient step. So one solve needs
+// few iterations, and each costs one FK (plus one Jacobian when accepted): for one position goal
+// both fused in O(n) with 3x3 algebra (jacobian_common.hpp).
 //
 // Iterations count trials: every evaluated step, accepted or not, is one of max_iterations.
 // Stops: converged; "stalled" when mu reaches dls_max_damping without an acceptable step, or when
