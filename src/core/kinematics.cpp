@@ -162,6 +162,12 @@ void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspac
 }
 
 void apply_step(const Chain& chain, const double* step, double max_step_angle, double* params) {
+  if (chain.all_hinges() && !(max_step_angle > 0.0)) {
+    // Every param an angle, nothing to cap or wrap: a plain sum, without per-joint lookups (the
+    // Jacobian solvers make one trial pose per iteration with it).
+    for (int j = 0; j < chain.dof_count(); ++j) params[j] += step[j];
+    return;
+  }
   const int n = chain.joint_count();
   for (int i = 0; i < n; ++i) {
     const int o = chain.dof_offset(i);

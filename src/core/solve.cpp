@@ -125,9 +125,6 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (!self_measured) {
     forward_kinematics(chain, p, ws);
     err = measure_goals(chain, goals, ws);
-    result.initial_error = err.combined;
-    result.initial_position_error = err.max_position;
-    result.initial_orientation_error = err.max_orientation;
   }
 
   if (!self_measured && err.within(options)) {
@@ -145,11 +142,10 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
         status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
     }
   }
-  if (self_measured) {
-    result.initial_error = status.start.combined;
-    result.initial_position_error = status.start.max_position;
-    result.initial_orientation_error = status.start.max_orientation;
-  }
+  const GoalErrors& start_err = self_measured ? status.start : err;
+  result.initial_error = start_err.combined;
+  result.initial_position_error = start_err.max_position;
+  result.initial_orientation_error = start_err.max_orientation;
   result.iterations = status.iterations;
   result.reason = status.reason;
   result.message = status.message;

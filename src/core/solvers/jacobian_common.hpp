@@ -543,12 +543,8 @@ inline void make_trial(const Chain& chain, const SolverOptions& o, const double*
                        Workspace& ws) {
   const int n = chain.dof_count();
   double* trial = ws.params_trial.data();
-  if (chain.all_hinges() && !(o.max_step_angle > 0.0)) {
-    for (int j = 0; j < n; ++j) trial[j] = params[j] + step[j];  // apply_step's hinge case, uncapped
-  } else {
-    std::copy(params, params + n, trial);
-    apply_step(chain, step, o.max_step_angle, trial);
-  }
+  std::copy(params, params + n, trial);
+  apply_step(chain, step, o.max_step_angle, trial);
   project_to_limits(chain, trial);
 }
 
