@@ -15,7 +15,6 @@ const char* to_string(TerminationReason reason);
 
 struct SolveResult {
   TerminationReason reason = TerminationReason::kInvalidInput;
-  bool pose_usable = false;  // false only for kInvalidInput (params were left untouched)
   int iterations = 0;
   // Combined error sqrt(sum_g weight_g |e_g|^2): for a single position goal, the distance (m).
   // "Initial" is the pose the solver starts from: the given one (warm start) or the rest pose,
@@ -29,6 +28,10 @@ struct SolveResult {
   double final_orientation_error = 0.0;
   double elapsed_us = 0.0;  // wall-clock time of the whole solve call (microseconds)
   Message message;          // why, for kInvalidInput (names the bad field); empty otherwise
+
+  // Derived from the reason, so the two can never disagree (Ceres' IsSolutionUsable()): false only
+  // for kInvalidInput, where params were left untouched.
+  bool usable() const { return reason != TerminationReason::kInvalidInput; }
 };
 
 }  // namespace ikchain

@@ -102,7 +102,6 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   const Clock::time_point start = Clock::now();
   SolveResult result;
   auto finish = [&]() -> SolveResult {
-    result.pose_usable = result.reason != TerminationReason::kInvalidInput;
     result.elapsed_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
     return result;
   };

@@ -242,7 +242,7 @@ gdx::Dictionary IKChain::get_last_result() const {
   d.set(gdx::Variant("initial_error"), gdx::Variant(has_result_ ? last_.initial_error : 0.0));
   d.set(gdx::Variant("final_error"), gdx::Variant(has_result_ ? last_.final_error : 0.0));
   d.set(gdx::Variant("microseconds"), gdx::Variant(has_result_ ? last_.elapsed_us : 0.0));
-  d.set(gdx::Variant("usable"), gdx::Variant(has_result_ && last_.pose_usable));
+  d.set(gdx::Variant("usable"), gdx::Variant(has_result_ && last_.usable()));
   return d;
 }
 
@@ -423,7 +423,6 @@ void IKChain::set_invalid_result() {
   has_result_ = true;
   last_ = SolveResult();
   last_.reason = TerminationReason::kInvalidInput;
-  last_.pose_usable = false;
 }
 
 void IKChain::notification(int32_t what) {
@@ -489,7 +488,7 @@ void IKChain::process_modification(double /*delta*/) {
   last_ = solve(static_cast<SolverKind>(solver_), chain_, Span<const Goal>(&goal_, 1), options_, workspace_,
                 params_);
   has_result_ = true;
-  if (!last_.pose_usable) {
+  if (!last_.usable()) {
     if (!last_.message.empty()) report_once(last_.message.c_str());
     return;
   }
@@ -499,7 +498,7 @@ void IKChain::process_modification(double /*delta*/) {
     const glm::dquat q = glm::normalize(chain_.rest_rotation(i) * so3::exp(glm::dvec3(p[0], p[1], p[2])));
     if (!gdx::is_finite(q)) {
       report_once(kNonFinite);
-      last_.pose_usable = false;
+      last_.reason = TerminationReason::kInvalidInput;
       return;  // nothing written yet: the old pose stays
     }
     new_rotations_[size_t(i)] = gdx::from_glm(q);

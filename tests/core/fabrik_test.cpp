@@ -94,7 +94,7 @@ TEST(FABRIK, TwoPositionGoalsAndIgnoredOrientation) {
                                     Goal::orientation(glm::angleAxis(2.0, glm::dvec3(1, 0, 0)))};
     p.setZero();
     r = solve(kKind, c, pose, o, ws, p);
-    EXPECT_TRUE(r.pose_usable);
+    EXPECT_TRUE(r.usable());
     EXPECT_LE(r.final_error, r.initial_error);
     if (r.final_position_error <= o.position_tolerance) ++position_ok;
     if (r.reason == TerminationReason::kConverged) {

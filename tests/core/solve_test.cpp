@@ -36,7 +36,7 @@ class SolveValidity : public ::testing::TestWithParam<SolverKind> {
     const Eigen::VectorXd before = params;
     const SolveResult r = solve(GetParam(), c, g, o, w, params);
     EXPECT_EQ(r.reason, TerminationReason::kInvalidInput) << to_string(r.reason);
-    EXPECT_FALSE(r.pose_usable);
+    EXPECT_FALSE(r.usable());
     EXPECT_NE(std::string(r.message.c_str()).find(needle), std::string::npos)
         << "message: '" << r.message.c_str() << "' should name '" << needle << "'";
     ASSERT_EQ(params.size(), before.size());
@@ -135,7 +135,7 @@ TEST_P(SolveValidity, AlreadyAtGoalReturnsConvergedUntouched) {
   const Eigen::VectorXd before = p;
   const SolveResult r = solve(GetParam(), chain, g, options, ws, p);
   EXPECT_EQ(r.reason, TerminationReason::kConverged);
-  EXPECT_TRUE(r.pose_usable);
+  EXPECT_TRUE(r.usable());
   EXPECT_EQ(r.iterations, 0);
   EXPECT_EQ(p, before);
   EXPECT_LE(r.final_error, options.position_tolerance);
@@ -181,7 +181,7 @@ TEST_P(SolveValidity, ReportedErrorsMatchForwardKinematics) {
       g.push_back(Goal::orientation(glm::angleAxis(0.3, glm::dvec3(0, 0, 1)), 0, 0.5));
     Eigen::VectorXd p = start;
     const SolveResult r = solve(GetParam(), c, g, o, w, p);
-    ASSERT_TRUE(r.pose_usable) << r.message.c_str();
+    ASSERT_TRUE(r.usable()) << r.message.c_str();
     const Eigen::VectorXd expected_start = o.warm_start ? start : Eigen::VectorXd::Zero(c.dof_count());
     expect_errors(g, expected_start, r.initial_error, r.initial_position_error, r.initial_orientation_error,
                   "initial");

@@ -122,7 +122,7 @@ enum class RoundTripStart {
 // What each trial asserts besides counting successes; the suites differ and each keeps its own.
 struct RoundTripChecks {
   RoundTripStart start = RoundTripStart::kRest;
-  bool usable = false;                   // r.pose_usable
+  bool usable = false;                   // r.usable()
   bool finite_within_limits = false;     // params finite and within the joint limits
   double reported_error_slack = -1.0;    // |r.final_position_error - measured| bound; < 0: not checked
   bool met_means_converged = false;      // a target met within tolerance must report kConverged
@@ -173,7 +173,7 @@ inline double round_trip_rate(SolverKind kind, const Chain& c, const SolverOptio
       p = random_params(c, rng);
     const SolveResult r = solve(kind, c, Span<const Goal>(&g, 1), o, ws, p);
     const double dist = glm::length(tip_of(c, p) - g.target_position);
-    if (k.usable) { EXPECT_TRUE(r.pose_usable); }
+    if (k.usable) { EXPECT_TRUE(r.usable()); }
     if (k.finite_within_limits) {
       EXPECT_TRUE(p.allFinite());
       EXPECT_TRUE(within_limits(c, p.data()));
@@ -302,7 +302,7 @@ inline void expect_target_on_root_finite_and_no_worse(SolverKind kind, const Cha
   Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
   const SolveResult r = solve(kind, c, Span<const Goal>(&on_root, 1), o, ws, p);
   EXPECT_TRUE(p.allFinite());
-  EXPECT_TRUE(r.pose_usable);
+  EXPECT_TRUE(r.usable());
   EXPECT_LE(r.final_error, r.initial_error);
   if (must_converge) { EXPECT_EQ(r.reason, TerminationReason::kConverged); }
 }
@@ -589,7 +589,7 @@ inline void expect_jacobian_solves_allocate_nothing(SolverKind kind, OptionsFor 
     const std::size_t before = allocation_count();
     const SolveResult r = run(kind, chain, goals, o, ws, params);
     EXPECT_EQ(allocation_count(), before);
-    EXPECT_TRUE(r.pose_usable);
+    EXPECT_TRUE(r.usable());
   }
 }
 
