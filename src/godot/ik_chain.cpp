@@ -100,7 +100,7 @@ bool finite(const gdx::Transform3D& t) {
 void IKChain::register_class(gdx::ClassRecord& record) {
   g_names = new Names();
   gdx::ClassBuilder<IKChain> b(record);
-  b.register_class(/*has_validate_property=*/true, /*has_notification=*/true);
+  b.register_class();
 
   b.method("set_root_bone", &IKChain::set_root_bone, {"bone_name"});
   b.method("get_root_bone", &IKChain::get_root_bone);
@@ -114,6 +114,8 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("get_tip_extension_length", &IKChain::get_tip_extension_length);
   b.method("set_target", &IKChain::set_target, {"path"});
   b.method("get_target", &IKChain::get_target);
+  b.method("set_use_target_transform", &IKChain::set_use_target_transform, {"enabled"});
+  b.method("is_using_target_transform", &IKChain::is_using_target_transform);
   b.method("set_target_transform", &IKChain::set_target_transform, {"transform"});
   b.method("get_target_transform", &IKChain::get_target_transform);
   b.method("set_solver", &IKChain::set_solver, {"solver"});
@@ -145,6 +147,9 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("get_last_result", &IKChain::get_last_result);
   b.method("solve_now", &IKChain::solve_now);
   b.method("get_chain_bones", &IKChain::get_chain_bones);
+  // Also callable from scripts (as godot-cpp does for bound virtuals): Node has no bound
+  // get_configuration_warnings(), and tools and tests want to read them.
+  b.method("_get_configuration_warnings", &IKChain::get_configuration_warnings);
 
   std::string solver_hint;
   for (const SolverEntry& e : kSolverTable) {
@@ -170,9 +175,11 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.property({"tip_extension_length", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
               "0,10,0.001,or_greater,suffix:m"},
              "set_tip_extension_length", "get_tip_extension_length");
-  b.group("Target", "");
+  b.group("Goal", "");
   b.property({"target", GDEXTENSION_VARIANT_TYPE_NODE_PATH, hint::PROPERTY_HINT_NODE_PATH_VALID_TYPES, "Node3D"},
              "set_target", "get_target");
+  b.property({"use_target_transform", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_use_target_transform",
+             "is_using_target_transform");
   b.property({"target_transform", GDEXTENSION_VARIANT_TYPE_TRANSFORM3D}, "set_target_transform",
              "get_target_transform");
   b.property({"goal_mode", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_ENUM, "Reach,Aim"}, "set_goal_mode",
@@ -280,6 +287,12 @@ void IKChain::set_target(const gdx::NodePath& path) {
   settings_changed();
 }
 
+void IKChain::set_use_target_transform(bool on) {
+  if (on == use_target_transform_) return;
+  use_target_transform_ = on;
+  settings_changed();
+}
+
 void IKChain::set_target_transform(const gdx::Transform3D& transform) { target_transform_ = transform; }
 
 void IKChain::set_solver(int64_t solver) {
@@ -368,14 +381,9 @@ void IKChain::set_deterministic(bool on) {
 gdx::Dictionary IKChain::get_last_result() const {
   gdx::Dictionary d;
   auto put = [&d](const char* key, const gdx::Variant& value) { d.set(gdx::Variant(key), value); };
-  if (!has_result_) {
-    put("reason", gdx::Variant("not_run"));
-    put("usable", gdx::Variant(false));
-    put("reached", gdx::Variant(false));
-    return d;
-  }
-  const bool usable = last_.usable();
-  put("reason", gdx::Variant(reason_name(last_.reason)));
+  // The same keys every time (zeros before the first solve), so scripts can read them unguarded.
+  const bool usable = has_result_ && last_.usable();
+  put("reason", gdx::Variant(has_result_ ? reason_name(last_.reason) : "not_run"));
   put("usable", gdx::Variant(usable));
   put("iterations", gdx::Variant(int64_t(last_.iterations)));
   put("initial_error", gdx::Variant(last_.initial_error));
@@ -390,7 +398,7 @@ gdx::Dictionary IKChain::get_last_result() const {
                               written_.max_orientation <= orientation_tolerance_));
   put("budget_exhausted", gdx::Variant(last_.budget_exhausted));
   put("solver", gdx::Variant(usable ? solver_label(last_solver_) : ""));
-  put("message", gdx::Variant(last_message_.empty() ? last_.message.c_str() : last_message_.c_str()));
+  put("message", gdx::Variant(last_.message.c_str()));
   return d;
 }
 
@@ -575,11 +583,14 @@ void IKChain::collect_chain_problems(const gdx::Skeleton3D& skel, std::vector<Pr
 
 void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
   const gdx::Node self = gdx::Node::unchecked(owner_);
-  if (target_.is_empty()) {
-    // target_transform drives the chain: valid as long as it is finite.
+  if (use_target_transform_) {
+    // target_transform (global space, set by a script) drives the chain; target is ignored.
     if (!finite(target_transform_))
-      problems.push_back({"target_transform", "IKChain: target is empty and target_transform is not finite; set "
-                                              "target to a Node3D or target_transform to a finite transform."});
+      problems.push_back({"target_transform", "IKChain: target_transform is not finite; set it to a finite "
+                                              "transform (global space)."});
+  } else if (target_.is_empty()) {
+    problems.push_back({"target", "IKChain: target is empty; set it to the Node3D the tip should reach, or turn on "
+                                  "use_target_transform and set target_transform from a script."});
   } else if (!gdx::Node3D::cast(self.get_node_or_null(target_))) {
     problems.push_back({"target", "IKChain: target '" + target_.to_string().utf8() +
                                       "' does not point to a Node3D; set it to the Node3D the tip should reach, or "
@@ -626,7 +637,7 @@ gdx::PackedStringArray IKChain::get_configuration_warnings() const {
     for (const Problem& q : problems) seen = seen || q.message == p.message;
     if (!seen) problems.push_back(p);
   }
-  if (has_result_ && last_.reason == TerminationReason::kInvalidInput && !last_.message.empty())
+  if (solver_refused_)
     problems.push_back({"solver", std::string("IKChain: the solver refused the last frame: ") + last_.message.c_str()});
   gdx::PackedStringArray out;
   for (const Problem& p : problems) out.push_back(text(p.message));
@@ -742,7 +753,7 @@ void IKChain::set_invalid_result(const char* message) {
   last_ = SolveResult();
   last_.reason = TerminationReason::kInvalidInput;
   last_.message = Message::format("%s", message);
-  last_message_.clear();
+  solver_refused_ = false;
 }
 
 void IKChain::notification(int32_t what) {
@@ -763,7 +774,7 @@ void IKChain::process_modification(double /*delta*/) {
 bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
   const gdx::Node self = gdx::Node::unchecked(owner_);
   gdx::Transform3D target_global = target_transform_;
-  if (!target_.is_empty()) {
+  if (!use_target_transform_) {
     const gdx::Node3D target = gdx::Node3D::cast(self.get_node_or_null(target_));
     if (!target || !target.is_inside_tree()) {
       set_invalid_result("IKChain: target does not point to a Node3D in the scene tree.");
@@ -863,8 +874,8 @@ bool IKChain::run(const gdx::Skeleton3D& skel) {
   last_ = solve(last_solver_, mapping_.chain(), Span<const Goal>(goal_buffer_.data(), goal_count_), options_,
                 workspace_, params_);
   has_result_ = true;
-  last_message_.clear();
-  if (!last_.usable()) {
+  solver_refused_ = !last_.usable();
+  if (solver_refused_) {
     report_runtime(last_.message.c_str());
     return false;
   }

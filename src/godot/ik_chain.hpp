@@ -69,6 +69,8 @@ class IKChain {
   double get_tip_extension_length() const { return tip_extension_length_; }
   void set_target(const gdx::NodePath& path);
   gdx::NodePath get_target() const { return target_; }
+  void set_use_target_transform(bool on);
+  bool is_using_target_transform() const { return use_target_transform_; }
   void set_target_transform(const gdx::Transform3D& transform);
   gdx::Transform3D get_target_transform() const { return target_transform_; }
   void set_solver(int64_t solver);
@@ -149,6 +151,7 @@ class IKChain {
   int64_t tip_extension_axis_ = AXIS_PLUS_Y;
   double tip_extension_length_ = 0.0;
   gdx::NodePath target_;
+  bool use_target_transform_ = false;
   gdx::Transform3D target_transform_;
   int64_t solver_ = SOLVER_AUTO;
   int64_t goal_mode_ = GOAL_MODE_REACH;
@@ -200,7 +203,7 @@ class IKChain {
   SolveResult last_;
   SolverKind last_solver_ = SolverKind::kDLS;
   GoalErrors written_;  // of the pose the skeleton ends with (after its influence blend)
-  std::string last_message_;
+  bool solver_refused_ = false;  // the last solve was kInvalidInput from the solver itself
 };
 
 }  // namespace ikchain::godot

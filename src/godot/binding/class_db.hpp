@@ -220,6 +220,16 @@ struct MethodRecord final : MethodRecordBase {
   }
 };
 
+template <class T, class = void>
+struct has_validate_property : std::false_type {};
+template <class T>
+struct has_validate_property<T, std::void_t<decltype(std::declval<T&>().validate_property(
+                                    std::declval<GDExtensionPropertyInfo&>()))>> : std::true_type {};
+template <class T, class = void>
+struct has_notification : std::false_type {};
+template <class T>
+struct has_notification<T, std::void_t<decltype(std::declval<T&>().notification(int32_t(0)))>> : std::true_type {};
+
 // A virtual override bound to a member function: arguments arrive in ptrcall encoding.
 template <class C, bool Const, class R, class... A>
 struct VirtualMethod final : VirtualRecord {
@@ -250,15 +260,15 @@ class ClassBuilder {
   ClassBuilder(ClassRecord& record) : record_(record) {}
 
   // C::validate_property(GDExtensionPropertyInfo&) and C::notification(int32_t what) are
-  // installed when the flags say C has them.
-  void register_class(bool has_validate_property = false, bool has_notification = false) {
+  // installed when C declares them.
+  void register_class() {
     GDExtensionClassCreationInfo5 info{};
     info.is_virtual = 0;
     info.is_abstract = 0;
     info.is_exposed = 1;
     info.is_runtime = 0;
-    info.validate_property_func = has_validate_property ? &validate_property : nullptr;
-    info.notification_func = has_notification ? &notification : nullptr;
+    if constexpr (detail::has_validate_property<C>::value) info.validate_property_func = &validate_property;
+    if constexpr (detail::has_notification<C>::value) info.notification_func = &notification;
     info.create_instance_func = &create_instance;
     info.free_instance_func = &free_instance;
     info.get_virtual_call_data_func = &get_virtual_call_data;
