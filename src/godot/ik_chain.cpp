@@ -544,12 +544,7 @@ void IKChain::collect_chain_problems(const gdx::Skeleton3D& skel, std::vector<Pr
                                   "tip_bone), this chain has " + std::to_string(joint_count) +
                                   "; change root_bone/tip_bone or pick another solver."});
   }
-  if (desc == nullptr) {
-    // The editor asks for warnings: also check what the builder would reject (limits, lengths).
-    SkeletonChainDesc check;
-    collect_chain_problems(skel, problems, &check);
-    return;
-  }
+  if (desc == nullptr) return;
   desc->bones.clear();
   desc->extend_tip_bone = extend_tip_bone_;
   desc->tip_extension_axis = TipAxis(tip_extension_axis_);
@@ -628,7 +623,14 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
 
 gdx::PackedStringArray IKChain::get_configuration_warnings() const {
   std::vector<Problem> problems;
-  collect_chain_problems(skeleton(), problems, nullptr);
+  SkeletonChainDesc desc;
+  collect_chain_problems(skeleton(), problems, &desc);
+  if (!desc.bones.empty()) {
+    // What the builder rejects (limits, lengths), checked on the settings as they are now.
+    SkeletonChain check;
+    const Message built = check.build(desc);
+    if (!built.empty()) problems.push_back({"joints", std::string("IKChain: cannot build the chain: ") + built.c_str()});
+  }
   collect_goal_problems(problems);
   if (chain_ok_ && mapping_.has_non_uniform_scale()) problems.push_back({"root_bone", mapping_.scale_warning().c_str()});
   // The chain as last built: what the builder rejected (limits, lengths) and what the solver refused.
