@@ -114,6 +114,12 @@ class Chain {
   // o_0: fixed by the base, independent of the pose.
   const glm::dvec3& root_in_base() const { return joints_[0].offset_translation; }
 
+  // Replaces every joint's offset_translation and the tip offset in place (same joint count) and
+  // updates what depends on them (bone lengths, direction codes, the rest pose's origins and tip),
+  // for bone positions that change per frame (an animated position, a stretchy limb). Allocates
+  // nothing. On failure (count mismatch, non-finite, zero-length) the chain is left unchanged.
+  Message set_offsets(const glm::dvec3* offset_translations, int count, const glm::dvec3& tip_offset);
+
  private:
   friend class ChainBuilder;
   int joint_count_ = 0;
