@@ -65,6 +65,9 @@ static func build(ik: Node) -> Dictionary:
 	if skel == null:
 		out["problems"].append("the IKChain is not a child of a Skeleton3D")
 		return out
+	if not skel.is_inside_tree():
+		out["problems"].append("the IKChain is not in the scene tree (no global positions yet)")
+		return out
 	if not ik.has_method("get_chain_bones"):
 		out["problems"].append("the IKChain has no get_chain_bones() (the node API of issue 7)")
 		return out

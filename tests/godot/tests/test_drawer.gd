@@ -269,6 +269,12 @@ func test_problems_are_named() -> void:
 	rig["skeleton"].add_child(no_api)
 	lines = Drawer.build(no_api)
 	check(lines["problems"].size() == 1 and lines["problems"][0].contains("get_chain_bones"), "missing API named: %s" % [lines["problems"]])
+	var loose := Arm.make_skeleton(N)  # never added to the tree: no global transforms to read
+	var loose_ik := FakeChain.new()
+	loose.add_child(loose_ik)
+	lines = Drawer.build(loose_ik)
+	check(lines["problems"].size() == 1 and lines["problems"][0].contains("scene tree"), "outside the tree named: %s" % [lines["problems"]])
+	loose.free()
 
 
 func test_debug_draw_redraws_on_skeleton_update() -> void:
