@@ -8,6 +8,7 @@
 #include "binding/class_db.hpp"
 #include "binding/engine.hpp"
 #include "binding/interface.hpp"
+#include "editor_help.hpp"
 #include "ik_chain.hpp"
 #include "ik_chain_goal.hpp"
 #include "ik_chain_joint.hpp"
@@ -34,8 +35,10 @@ void unregister(gdx::ClassRecord*& record) {
   delete record;
   record = nullptr;
 }
+GDExtensionInterfaceGetProcAddress g_get_proc_address = nullptr;
 
 void initialize(void*, GDExtensionInitializationLevel level) {
+  if (level == GDEXTENSION_INITIALIZATION_EDITOR) ikchain::godot::load_class_docs(g_get_proc_address);
   if (level != GDEXTENSION_INITIALIZATION_SCENE) return;
   if (!ikchain::gdx::init_builtins() || !ikchain::gdx::init_method_binds()) {
     std::fprintf(stderr, "IKChain: this engine lacks methods IKChain needs; IKChain is not registered.\n");
@@ -63,6 +66,7 @@ extern "C" __attribute__((visibility("default"))) GDExtensionBool ikchain_librar
     GDExtensionInterfaceGetProcAddress get_proc_address, GDExtensionClassLibraryPtr library,
     GDExtensionInitialization* r_initialization) {
   if (!ikchain::gdx::load_interface(get_proc_address, library)) return 0;
+  g_get_proc_address = get_proc_address;
   r_initialization->minimum_initialization_level = GDEXTENSION_INITIALIZATION_SCENE;
   r_initialization->userdata = nullptr;
   r_initialization->initialize = &initialize;
