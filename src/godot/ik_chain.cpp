@@ -717,6 +717,7 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
       workspace_.reset(mapping_.chain(), max_goals);
       goal_buffer_.assign(size_t(max_goals), Goal());
       params_ = Eigen::VectorXd::Zero(mapping_.chain().dof_count());
+      params_from_last_solve_ = false;
       bone_poses_.assign(size_t(bones), BonePose());
       old_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
       new_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
@@ -869,7 +870,7 @@ bool IKChain::run(const gdx::Skeleton3D& skel) {
 
   if (deterministic_) {
     params_.setZero();
-  } else {
+  } else if (!params_from_last_solve_) {
     mapping_.params_from_rotations(old_rotations_, params_.data());
   }
   last_solver_ = resolved_solver();
@@ -877,11 +878,13 @@ bool IKChain::run(const gdx::Skeleton3D& skel) {
                 workspace_, params_);
   has_result_ = true;
   solver_refused_ = !last_.usable();
+  params_from_last_solve_ = !solver_refused_;
   if (solver_refused_) {
     report_runtime(last_.message.c_str());
     return false;
   }
   if (!mapping_.rotations_from_params(params_.data(), new_rotations_)) {
+    params_from_last_solve_ = false;
     report_runtime(kNonFinite);
     set_invalid_result(kNonFinite);
     return false;
