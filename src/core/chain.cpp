@@ -18,9 +18,21 @@ ChainBuilder& ChainBuilder::set_tip_offset(const glm::dvec3& tip_offset) {
   return *this;
 }
 
+ChainBuilder& ChainBuilder::set_tip_rotation(const glm::dquat& tip_rotation) {
+  tip_rotation_ = tip_rotation;
+  return *this;
+}
+
+ChainBuilder& ChainBuilder::set_tip_frame(const glm::dvec3& tip_offset, const glm::dquat& tip_rotation) {
+  tip_offset_ = tip_offset;
+  tip_rotation_ = tip_rotation;
+  return *this;
+}
+
 void ChainBuilder::clear() {
   joints_.clear();
   tip_offset_ = glm::dvec3(0.0);
+  tip_rotation_ = glm::dquat(1.0, 0.0, 0.0, 0.0);
 }
 
 bool Chain::has_limits(int i) const {
@@ -34,6 +46,8 @@ Message ChainBuilder::build(Chain& out) const {
   const int n = static_cast<int>(joints_.size());
   if (n == 0) return Message::format("chain has 0 joints: add at least one joint");
   if (!so3::finite(tip_offset_)) return Message::format("tip_offset is not finite");
+  if (!so3::finite(tip_rotation_) || glm::length(tip_rotation_) < 1e-9)
+    return Message::format("tip_rotation must be a finite non-zero quaternion");
 
   Chain c;
   c.joint_count_ = n;
@@ -95,6 +109,7 @@ Message ChainBuilder::build(Chain& out) const {
   }
   c.dof_count_ = dofs;
   c.tip_offset_ = tip_offset_;
+  c.tip_rotation_ = glm::normalize(tip_rotation_);
   c.tip_direction_ = quat_ops::direction_code(tip_offset_);
   c.all_hinges_ = true;
   for (int i = 0; i < n; ++i) c.all_hinges_ = c.all_hinges_ && c.joint_type(i) == JointType::kHinge;
