@@ -79,12 +79,6 @@ const char* reason_name(TerminationReason r) {
 
 gdx::String text(const std::string& s) { return gdx::String(std::string_view(s)); }
 
-glm::dvec3 axis_vector(int64_t axis) {
-  static constexpr double kAxes[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  const auto& a = kAxes[std::clamp<int64_t>(axis, 0, 5)];
-  return glm::dvec3(a[0], a[1], a[2]);
-}
-
 bool finite(const gdx::Transform3D& t) {
   const glm::dmat4 m = gdx::to_glm(t);
   for (int c = 0; c < 4; ++c)
