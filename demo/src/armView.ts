@@ -33,9 +33,9 @@ export class ArmView {
     this.settings = settings;
     this.scene = basicScene().scene;
     this.camera = new THREE.PerspectiveCamera(50, 1, 0.05, 200);
-    this.camera.position.set(6, 5, 8);
+    this.camera.position.set(4.2, 3.6, 5.6);
     this.orbit = new OrbitControls(this.camera, dom);
-    this.orbit.target.set(0, 1.8, 0);
+    this.orbit.target.set(0.6, 1.6, 0);
     this.orbit.update();
 
     const ball = new THREE.Mesh(new THREE.SphereGeometry(0.09, 16, 12),

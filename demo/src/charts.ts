@@ -29,14 +29,17 @@ export interface ChartState {
   plots: Record<string, uPlot>;
 }
 
-function plot(el: HTMLElement, title: string, xLabel: string, yLabel: string, log: boolean,
+// Log-scale tick labels: uPlot's default prints 1e-4 as "0".
+const logTicks = (_u: uPlot, values: number[]) => values.map((v) => (v == null ? "" : v >= 0.01 && v < 1e4 ? String(+v.toPrecision(3)) : v.toExponential(0)));
+
+function plot(el: HTMLElement, title: string, xLabel: string, yLabel: string, log: boolean, logX: boolean,
               xs: number[], series: { name: string; color: string; ys: (number | null)[] }[]): uPlot {
   const opts: uPlot.Options = {
     title, width: Math.max(320, el.clientWidth || 480), height: 260,
-    scales: { x: { time: false }, y: log ? { distr: 3 } : {} },
+    scales: { x: logX ? { time: false, distr: 3 } : { time: false }, y: log ? { distr: 3 } : {} },
     axes: [
-      { label: xLabel, stroke: '#b7bfcc', grid: { stroke: '#2a2e37' } },
-      { label: yLabel, stroke: '#b7bfcc', grid: { stroke: '#2a2e37' }, size: 70 },
+      { label: xLabel, stroke: '#b7bfcc', grid: { stroke: '#2a2e37' }, ...(logX ? { values: logTicks } : {}) },
+      { label: yLabel, stroke: '#b7bfcc', grid: { stroke: '#2a2e37' }, size: 70, ...(log ? { values: logTicks } : {}) },
     ],
     series: [{ label: xLabel }, ...series.map((s) => ({ label: s.name, stroke: s.color, width: 2, points: { show: xs.length < 20 } }))],
   };
@@ -56,7 +59,7 @@ export async function computeCharts(core: IKCore, state: ChartState, status: (s:
   const maxLen = Math.max(...state.convergence.map((c) => c.errors.length));
   const ks = Array.from({ length: maxLen }, (_, i) => i);
   state.plots.convergence = plot(document.getElementById('chart-convergence')!, '', 'iteration budget k',
-    'distance to target (m)', true, ks, CHART_SOLVERS.map((k, i) => ({
+    'distance to target (m)', true, false, ks, CHART_SOLVERS.map((k, i) => ({
       name: label(k), color: COLORS[k],
       ys: ks.map((x) => { const e = state.convergence[i].errors[x]; return e === undefined ? null : Math.max(e, 1e-12); }),
     })));
@@ -82,14 +85,14 @@ export async function computeCharts(core: IKCore, state: ChartState, status: (s:
     status(`measuring ${n}-joint chains…`);
     for (const k of CHART_SOLVERS) {
       const trials = n <= 10 ? 40 : n <= 30 ? 20 : 8;
-      state.cells.push(measureCell(core, k, n, trials));
+      state.cells.push(measureCell(core, k, n, trials, 3));
       await nextTask();
     }
   }
   const cell = (k: SolverKind, n: number) => state.cells.find((c) => c.solver === k && c.joints === n);
-  state.plots.perIteration = plot(document.getElementById('chart-per-iteration')!, '', 'joints', 'µs per iteration', true,
+  state.plots.perIteration = plot(document.getElementById('chart-per-iteration')!, '', 'joints', 'µs per iteration', true, true,
     JOINT_COUNTS, CHART_SOLVERS.map((k) => ({ name: label(k), color: COLORS[k], ys: JOINT_COUNTS.map((n) => cell(k, n)?.usPerIteration ?? null) })));
-  state.plots.iterations = plot(document.getElementById('chart-iterations')!, '', 'joints', 'median iterations', true,
+  state.plots.iterations = plot(document.getElementById('chart-iterations')!, '', 'joints', 'median iterations', true, true,
     JOINT_COUNTS, CHART_SOLVERS.map((k) => ({ name: label(k), color: COLORS[k], ys: JOINT_COUNTS.map((n) => cell(k, n)?.medianIterations ?? null) })));
 
   // 4. Speed at 10 joints: the figure compared with the native benchmark (docs/web-demo.md).

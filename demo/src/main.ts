@@ -38,6 +38,7 @@ async function main(): Promise<void> {
     document.querySelectorAll('.tab').forEach((t) => t.classList.toggle('active', (t as HTMLElement).dataset.view === v));
     $('missile-stats').hidden = v !== 'missile';
     $('hint').hidden = v !== 'arm';
+    $('arm-controls').hidden = v !== 'arm';
   };
   document.querySelectorAll<HTMLElement>('.tab').forEach((t) => t.addEventListener('click', () => setView(t.dataset.view as 'arm' | 'missile')));
   setView('arm');
@@ -82,17 +83,18 @@ async function main(): Promise<void> {
   const frame = (now: number) => {
     const dt = Math.min(0.05, (now - last) / 1000);
     last = now;
-    arm.update();
-    missile.update(dt);
-    const r = arm.lastResult!;
-    if (now - shownAt > 100) {
+    if (view === 'arm') arm.update();
+    else missile.update(dt);
+    const r = view === 'arm' ? arm.lastResult : missile.lastResult;
+    if (r && now - shownAt > 100) {
       shownAt = now;
+      const unit = view === 'arm' ? 'm' : 'rad';
       $('live-reason').textContent = r.reason;
-      $('live-error').textContent = `${fmt(r.finalError)} m`;
-      $('live-tolerance').textContent = `${fmt(arm.chainTolerance, 1)} m`;
+      $('live-error').textContent = `${fmt(r.finalError)} ${unit}`;
+      $('live-tolerance').textContent = `${fmt(view === 'arm' ? arm.chainTolerance : 1e-4, 1)} ${unit}`;
       $('live-iterations').textContent = String(r.iterations);
-      $('live-us').textContent = arm.meanSolveUs.toFixed(1);
-      $('live-message').textContent = view === 'missile' ? missile.lastMessage : r.message;
+      $('live-us').textContent = (view === 'arm' ? arm.meanSolveUs : missile.meanSolveUs).toFixed(1);
+      $('live-message').textContent = r.message;
       $('m-aim').textContent = `${(missile.meanAimErrorRad * 180 / Math.PI).toFixed(3)}°`;
       $('m-lead').textContent = missile.lead ? 'intercept point' : 'no intercept: the target itself';
       $('m-shots').textContent = String(missile.shots);

@@ -11,7 +11,7 @@ export interface Cell {
   joints: number;
   trials: number;
   usPerSolve: number; // median over batches of batch time / batch size
-  usPerIteration: number; // all time over all iterations
+  usPerIteration: number; // batch time over the batch's iterations, median over batches
   medianIterations: number;
   successRate: number; // tip within 1e-5 L
 }
@@ -36,9 +36,8 @@ export function measureCell(core: IKCore, solver: SolverKind, joints: number, tr
     chain.solveFast(solver);
   }
   const batchUs: number[] = [];
+  const batchUsPerIteration: number[] = [];
   const iterations: number[] = [];
-  let totalUs = 0;
-  let totalIterations = 0;
   let successes = 0;
   for (let r = 0; r < rounds; ++r) {
     for (let b = 0; b < targets.length; b += batch) {
@@ -52,8 +51,7 @@ export function measureCell(core: IKCore, solver: SolverKind, joints: number, tr
       }
       const us = (performance.now() - t0) * 1000;
       batchUs.push(us / (end - b));
-      totalUs += us;
-      totalIterations += its;
+      if (its > 0) batchUsPerIteration.push(us / its);
     }
   }
   // Iterations and success, untimed (reading the result object costs more than a solve).
@@ -67,7 +65,7 @@ export function measureCell(core: IKCore, solver: SolverKind, joints: number, tr
   return {
     solver, joints, trials,
     usPerSolve: median(batchUs),
-    usPerIteration: totalIterations ? totalUs / totalIterations : NaN,
+    usPerIteration: batchUsPerIteration.length ? median(batchUsPerIteration) : NaN,
     medianIterations: median(iterations),
     successRate: successes / targets.length,
   };

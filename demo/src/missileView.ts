@@ -7,7 +7,7 @@ import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { ChainMesh, basicScene } from './chainMesh.js';
 import { leadPoint, pnAcceleration } from './guidance.js';
 import type { V3 } from './guidance.js';
-import type { Chain, IKCore } from './ikchain.js';
+import type { Chain, IKCore, SolveResult } from './ikchain.js';
 import { SolverKind } from './ikchain.js';
 
 const DEG = Math.PI / 180;
@@ -30,7 +30,7 @@ export class MissileView {
   private readonly targetMesh: THREE.Mesh;
   private readonly leadMarker: THREE.Mesh;
   private readonly missiles: Missile[] = [];
-  private readonly missileGeo = new THREE.ConeGeometry(0.12, 0.6, 10);
+  private readonly missileGeo = new THREE.ConeGeometry(0.22, 1.1, 10);
   private readonly missileMat = new THREE.MeshStandardMaterial({ color: 0xff6a4d, emissive: 0x551100 });
   private time = 0;
   private sinceShot = 0;
@@ -39,15 +39,16 @@ export class MissileView {
   hits = 0;
   aimErrorRad = NaN;
   lead = false;
-  lastMessage = '';
+  lastResult?: SolveResult;
+  private solveTimesUs: number[] = [];
   private aimErrors: number[] = [];
 
   constructor(core: IKCore, dom: HTMLElement) {
     this.scene = basicScene().scene;
     this.camera = new THREE.PerspectiveCamera(55, 1, 0.1, 400);
-    this.camera.position.set(-16, 10, 22);
+    this.camera.position.set(-17, 13, 22);
     this.orbit = new OrbitControls(this.camera, dom);
-    this.orbit.target.set(0, 5, 0);
+    this.orbit.target.set(0, 6, -3);
     this.orbit.update();
     this.chain = core.createChain([
       { type: 'hinge', offset: [0, 0, 0], axis: [0, 1, 0] },                                      // base yaw
@@ -59,9 +60,9 @@ export class MissileView {
     this.chain.setGoals([{ kind: 'aim', axis: [0, 1, 0], direction: [0, 1, 0] }]);
     this.chain.setOptions({ maxIterations: 30, orientationTolerance: 1e-4, warmStart: true, maxStepAngle: 0.08 });
     this.scene.add(this.mesh.group);
-    this.targetMesh = new THREE.Mesh(new THREE.OctahedronGeometry(0.5),
+    this.targetMesh = new THREE.Mesh(new THREE.OctahedronGeometry(0.8),
                                      new THREE.MeshStandardMaterial({ color: 0xf0d060, emissive: 0x403000 }));
-    this.leadMarker = new THREE.Mesh(new THREE.SphereGeometry(0.18, 10, 8),
+    this.leadMarker = new THREE.Mesh(new THREE.SphereGeometry(0.35, 10, 8),
                                      new THREE.MeshBasicMaterial({ color: 0x55ddff, wireframe: true }));
     this.scene.add(this.targetMesh, this.leadMarker);
   }
@@ -91,8 +92,11 @@ export class MissileView {
     this.leadMarker.position.fromArray(aim.point);
     const dir: V3 = [aim.point[0] - pivot[0], aim.point[1] - pivot[1], aim.point[2] - pivot[2]];
     this.chain.setAimDirection(0, dir);
-    const r = this.chain.solve(this.solver);
-    this.lastMessage = r.usable ? '' : r.message;
+    const t0 = performance.now();
+    this.chain.solveFast(this.solver);
+    this.solveTimesUs.push((performance.now() - t0) * 1000);
+    if (this.solveTimesUs.length > 120) this.solveTimesUs.shift();
+    this.lastResult = this.chain.result();
     f = this.chain.frames();
     this.mesh.update(f);
 
@@ -131,6 +135,11 @@ export class MissileView {
         this.missiles.splice(i, 1);
       }
     }
+  }
+
+  get meanSolveUs(): number {
+    const t = this.solveTimesUs;
+    return t.length ? t.reduce((a, b) => a + b, 0) / t.length : NaN;
   }
 
   get meanAimErrorRad(): number {
