@@ -7,10 +7,12 @@ import type { V3 } from '../../src/guidance.js';
 test('interceptTime solves |d + v t| = s t exactly', () => {
   // 100 + 9 t^2 = 25 t^2  ->  t = 2.5
   assert.ok(Math.abs(interceptTime([10, 0, 0], [0, 3, 0], 5)! - 2.5) < 1e-12);
-  // Head-on: closing at 5 + 5 over 10 -> t = 1.
-  assert.ok(Math.abs(interceptTime([10, 0, 0], [-5, 0, 0], 5)! - 1) < 1e-12);
-  // Equal speeds (the linear case), target crossing: 100 + 2*0*t = 0 ... moving away along d: no solution.
+  // Head-on, faster projectile: closing at 3 + 7 over 10 -> t = 1.
+  assert.ok(Math.abs(interceptTime([10, 0, 0], [-3, 0, 0], 7)! - 1) < 1e-12);
+  // Equal speeds (the quadratic degenerates to 2 (d.v) t + d.d = 0): running away along d, no t > 0;
+  // coming straight at the launcher, they meet half-way: 100 - 100 t = 0 -> t = 1.
   assert.equal(interceptTime([10, 0, 0], [5, 0, 0], 5), null);
+  assert.ok(Math.abs(interceptTime([10, 0, 0], [-5, 0, 0], 5)! - 1) < 1e-12);
   // Faster target running away: no intercept.
   assert.equal(interceptTime([10, 0, 0], [8, 0, 0], 5), null);
 });
