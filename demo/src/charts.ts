@@ -100,7 +100,7 @@ export async function computeCharts(core: IKCore, state: ChartState, status: (s:
   const speedBody = document.querySelector('#speed tbody')!;
   for (const k of SPEED_SOLVERS) {
     await nextTask();
-    const c = measureCell(core, k, 10, 1000, 3, 100);
+    const c = measureCell(core, k, 10, 1000, 3, 25);
     state.speed.push({ solver: SOLVERS.find((s) => s.kind === k)!.id, usPerSolve: c.usPerSolve, medianIterations: c.medianIterations, trials: c.trials });
     const tr = document.createElement('tr');
     tr.innerHTML = `<td>${label(k)}</td><td>${c.usPerSolve.toFixed(2)}</td><td>${c.medianIterations}</td>`;

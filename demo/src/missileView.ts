@@ -19,7 +19,36 @@ const MISSILE_LIFETIME = 6; // s
 const FIRE_INTERVAL = 1.5; // s
 const FIRE_AIM_ERROR = 2 * DEG;
 
-interface Missile { pos: V3; vel: V3; age: number; mesh: THREE.Mesh }
+interface Missile { pos: V3; vel: V3; age: number; mesh: THREE.Mesh; trail: Trail }
+
+const TRAIL_POINTS = 90;
+
+// A fading polyline of an object's last positions.
+class Trail {
+  readonly line: THREE.Line;
+  private readonly positions = new Float32Array(3 * TRAIL_POINTS);
+  private count = 0;
+  constructor(color: number) {
+    const geo = new THREE.BufferGeometry();
+    geo.setAttribute('position', new THREE.BufferAttribute(this.positions, 3));
+    geo.setDrawRange(0, 0);
+    this.line = new THREE.Line(geo, new THREE.LineBasicMaterial({ color, transparent: true, opacity: 0.6 }));
+    this.line.frustumCulled = false;
+  }
+  push(p: V3): void {
+    if (this.count === TRAIL_POINTS) this.positions.copyWithin(0, 3);
+    else this.count++;
+    this.positions.set(p, 3 * (this.count - 1));
+    const geo = this.line.geometry;
+    geo.setDrawRange(0, this.count);
+    (geo.getAttribute('position') as THREE.BufferAttribute).needsUpdate = true;
+  }
+  dispose(): void {
+    this.line.removeFromParent();
+    this.line.geometry.dispose();
+    (this.line.material as THREE.Material).dispose();
+  }
+}
 
 export class MissileView {
   readonly scene: THREE.Scene;
@@ -30,6 +59,7 @@ export class MissileView {
   private readonly targetMesh: THREE.Mesh;
   private readonly leadMarker: THREE.Mesh;
   private readonly missiles: Missile[] = [];
+  private readonly targetTrail = new Trail(0xf0d060);
   private readonly missileGeo = new THREE.ConeGeometry(0.22, 1.1, 10);
   private readonly missileMat = new THREE.MeshStandardMaterial({ color: 0xff6a4d, emissive: 0x551100 });
   private time = 0;
@@ -64,7 +94,7 @@ export class MissileView {
                                      new THREE.MeshStandardMaterial({ color: 0xf0d060, emissive: 0x403000 }));
     this.leadMarker = new THREE.Mesh(new THREE.SphereGeometry(0.35, 10, 8),
                                      new THREE.MeshBasicMaterial({ color: 0x55ddff, wireframe: true }));
-    this.scene.add(this.targetMesh, this.leadMarker);
+    this.scene.add(this.targetMesh, this.leadMarker, this.targetTrail.line);
   }
 
   setEnabled(on: boolean): void { this.orbit.enabled = on; }
@@ -83,6 +113,7 @@ export class MissileView {
     this.sinceShot += dt;
     const { pos: target, vel: targetVel } = this.targetState(this.time);
     this.targetMesh.position.fromArray(target);
+    this.targetTrail.push(target);
 
     // Aim: the barrel pivot (joint 3) toward the lead point; the core's aim goal turns the chain.
     let f = this.chain.frames();
@@ -111,8 +142,9 @@ export class MissileView {
       this.sinceShot = 0;
       this.shots++;
       const m = new THREE.Mesh(this.missileGeo, this.missileMat);
-      this.scene.add(m);
-      this.missiles.push({ pos: [...f.tip] as V3, vel: [barrel.x * MISSILE_SPEED, barrel.y * MISSILE_SPEED, barrel.z * MISSILE_SPEED], age: 0, mesh: m });
+      const trail = new Trail(0xff6a4d);
+      this.scene.add(m, trail.line);
+      this.missiles.push({ pos: [...f.tip] as V3, vel: [barrel.x * MISSILE_SPEED, barrel.y * MISSILE_SPEED, barrel.z * MISSILE_SPEED], age: 0, mesh: m, trail });
     }
 
     const up = new THREE.Vector3(0, 1, 0);
@@ -127,11 +159,13 @@ export class MissileView {
       }
       m.age += dt;
       m.mesh.position.fromArray(m.pos);
+      m.trail.push(m.pos);
       m.mesh.quaternion.setFromUnitVectors(up, new THREE.Vector3(...m.vel).normalize());
       const miss = Math.hypot(target[0] - m.pos[0], target[1] - m.pos[1], target[2] - m.pos[2]);
       if (miss < HIT_RADIUS || m.age > MISSILE_LIFETIME) {
         if (miss < HIT_RADIUS) this.hits++;
         m.mesh.removeFromParent();
+        m.trail.dispose();
         this.missiles.splice(i, 1);
       }
     }

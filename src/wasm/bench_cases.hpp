@@ -3,9 +3,9 @@
 // with unit links, seeded reachable targets, the lecture's precision case and the convergence
 // trace (error after a budget of k iterations, run afresh from the rest pose).
 //
-// Same definitions, same seeds. One difference: emscripten's libc++ and the host's libstdc++ may
-// map std::mt19937's output to doubles differently (uniform_real_distribution is not specified
-// bit for bit), so the wasm targets are drawn the same way but are not guaranteed identical.
+// Same definitions, same seeds. uniform_real_distribution is not specified bit for bit, but
+// emscripten's libc++ and the host's libstdc++ draw the same targets here (checked for n = 10,
+// seed 1010: equal to the last digit).
 #pragma once
 #include <cmath>
 #include <random>
