@@ -97,12 +97,12 @@ export class ArmView {
     const t1 = performance.now();
     this.lastResult = chain.result();
     this.solveTimesUs.push((t1 - t0) * 1000);
-    if (this.solveTimesUs.length > 120) this.solveTimesUs.shift();
+    if (this.solveTimesUs.length > 60) this.solveTimesUs.shift();
     this.mesh!.update(chain.frames());
   }
 
-  // Mean of the last 120 frames' solve times (the browser's timer is coarse: one solve alone
-  // reads as 0 or one tick; the mean over many frames is what it measures).
+  // Mean of the last 60 frames' solve times, about a second: the browser's timer is coarse (5 µs
+  // when cross-origin isolated), so one solve alone reads as 0 or a tick; the mean is what it measures.
   get meanSolveUs(): number {
     const t = this.solveTimesUs;
     return t.length ? t.reduce((a, b) => a + b, 0) / t.length : NaN;

@@ -126,7 +126,7 @@ export class MissileView {
     const t0 = performance.now();
     this.chain.solveFast(this.solver);
     this.solveTimesUs.push((performance.now() - t0) * 1000);
-    if (this.solveTimesUs.length > 120) this.solveTimesUs.shift();
+    if (this.solveTimesUs.length > 60) this.solveTimesUs.shift();
     this.lastResult = this.chain.result();
     f = this.chain.frames();
     this.mesh.update(f);
