@@ -62,5 +62,10 @@ export function basicScene(): { scene: THREE.Scene; grid: THREE.GridHelper } {
   scene.add(sun);
   const grid = new THREE.GridHelper(20, 20, 0x3a3f4a, 0x2a2e37);
   scene.add(grid);
+  // The chain's base: its root joint sits at the origin of base space.
+  const base = new THREE.Mesh(new THREE.CylinderGeometry(0.45, 0.55, 0.12, 32),
+                              new THREE.MeshStandardMaterial({ color: 0x3a3f4a, roughness: 0.8 }));
+  base.position.y = -0.06;
+  scene.add(base);
   return { scene, grid };
 }
