@@ -103,7 +103,7 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_extend_tip_bone", &IKChain::set_extend_tip_bone, {"enabled"});
   b.method("is_extend_tip_bone", &IKChain::is_extend_tip_bone);
   b.method("set_tip_extension_axis", &IKChain::set_tip_extension_axis, {"axis"});
-  b.method("get_tip_extension_axis", &IKChain::get_tip_extension_axis);
+  b.method("get_tip_extension_axis", &IKChain::get_tip_extension_axis, {}, {"IKChain.Axis"});
   b.method("set_tip_extension_length", &IKChain::set_tip_extension_length, {"length"});
   b.method("get_tip_extension_length", &IKChain::get_tip_extension_length);
   b.method("set_target", &IKChain::set_target, {"path"});
@@ -113,9 +113,9 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_target_transform", &IKChain::set_target_transform, {"transform"});
   b.method("get_target_transform", &IKChain::get_target_transform);
   b.method("set_solver", &IKChain::set_solver, {"solver"});
-  b.method("get_solver", &IKChain::get_solver);
+  b.method("get_solver", &IKChain::get_solver, {}, {"IKChain.Solver"});
   b.method("set_goal_mode", &IKChain::set_goal_mode, {"mode"});
-  b.method("get_goal_mode", &IKChain::get_goal_mode);
+  b.method("get_goal_mode", &IKChain::get_goal_mode, {}, {"IKChain.GoalMode"});
   b.method("set_aim_axis", &IKChain::set_aim_axis, {"axis"});
   b.method("get_aim_axis", &IKChain::get_aim_axis);
   b.method("set_use_target_rotation", &IKChain::set_use_target_rotation, {"enabled"});
@@ -125,9 +125,9 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_pole_target", &IKChain::set_pole_target, {"path"});
   b.method("get_pole_target", &IKChain::get_pole_target);
   b.method("set_joints", &IKChain::set_joints, {"joints"});
-  b.method("get_joints", &IKChain::get_joints);
+  b.method("get_joints", &IKChain::get_joints, {}, {nullptr, "IKChainJoint"});
   b.method("set_goals", &IKChain::set_goals, {"goals"});
-  b.method("get_goals", &IKChain::get_goals);
+  b.method("get_goals", &IKChain::get_goals, {}, {nullptr, "IKChainGoal"});
   b.method("set_max_iterations", &IKChain::set_max_iterations, {"iterations"});
   b.method("get_max_iterations", &IKChain::get_max_iterations);
   b.method("set_tolerance", &IKChain::set_tolerance, {"tolerance"});
