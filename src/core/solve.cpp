@@ -27,19 +27,61 @@ bool finite3(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v
 
 bool params_finite(const Eigen::Ref<const Eigen::VectorXd>& p) { return p.allFinite(); }
 
-// A non-converged stop is "unreachable" when the pose is a best reach: either the only goal is a
-// tip position beyond the chain's length and the tip is as close as the chain's length allows
-// (within position_tolerance), or the objective's gradient J^T e vanishes (a stationary point with
-// error left). Limits make constrained optima non-stationary: those stay "stalled".
-// Needs ws to hold the forward kinematics of params, and `err` their measured errors (solve() has
-// both at hand for the final pose).
+// Largest distance effector k (1..n) can be from the root joint's origin o_0: the bones before it.
+double reach_of(const Chain& chain, int k) {
+  double reach = 0.0;
+  for (int i = 0; i < k; ++i) reach += chain.bone_length(i);
+  return reach;
+}
+
+// Smallest distance effector k can be from o_0 (triangle inequality): the longest bone before it
+// minus all the others, or 0.
+double inner_reach_of(const Chain& chain, int k) {
+  double longest = 0.0;
+  for (int i = 0; i < k; ++i) longest = std::max(longest, chain.bone_length(i));
+  return std::max(0.0, 2.0 * longest - reach_of(chain, k));
+}
+
+// How far a position goal's target is outside its effector's reach shell around o_0 (<= 0 inside).
+double outside_reach(const Chain& chain, const Goal& g) {
+  const int k = resolve_effector(chain, g.effector);
+  const double dist = glm::length(g.target_position - chain.root_in_base());
+  return std::max(dist - reach_of(chain, k), inner_reach_of(chain, k) - dist);
+}
+
+// True when the goals provably cannot all be met, by the chain's workspace bounds: a position goal
+// outside its effector's reach shell around o_0 (farther than the bones before it, or nearer than
+// the longest of them minus the others), or two position goals farther apart than the bones
+// between their effectors. (Orientation conflicts and limits are not bounded here: a solve they
+// stop is "stalled", which promises nothing about reachability.)
+bool provably_out_of_reach(const Chain& chain, Span<const Goal> goals, double tolerance) {
+  for (int a = 0; a < goals.size; ++a) {
+    if (goals[a].kind != GoalKind::kPosition) continue;
+    const int ka = resolve_effector(chain, goals[a].effector);
+    if (outside_reach(chain, goals[a]) > tolerance) return true;
+    for (int b = a + 1; b < goals.size; ++b) {
+      if (goals[b].kind != GoalKind::kPosition) continue;
+      const int kb = resolve_effector(chain, goals[b].effector);
+      const double between = std::abs(reach_of(chain, kb) - reach_of(chain, ka));
+      if (glm::length(goals[b].target_position - goals[a].target_position) > between + tolerance) return true;
+    }
+  }
+  return false;
+}
+
+// A non-converged stop is "unreachable" only when the goals are provably out of reach
+// (provably_out_of_reach) and the pose is a best reach: for a single tip position goal, the tip as
+// close as the reach shell allows (within position_tolerance); otherwise a stationary point of
+// the objective (J^T e vanishes) on a chain without limits (limits make constrained optima
+// non-stationary). Every other non-converged stop - a local minimum of reachable goals included -
+// is "stalled" (or the solver's kMaxIterations). Needs ws to hold the forward kinematics of
+// params, and `err` their measured errors (solve() has both at hand for the final pose).
 bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                    Workspace& ws, const double* params, const GoalErrors& err) {
+  if (!provably_out_of_reach(chain, goals, options.position_tolerance)) return false;
   if (goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
       resolve_effector(chain, goals[0].effector) == chain.joint_count()) {
-    const double dist = glm::length(goals[0].target_position - chain.root_in_base());
-    const double best = dist - chain.total_length();
-    if (best > options.position_tolerance) return err.max_position <= best + options.position_tolerance;
+    return err.max_position <= outside_reach(chain, goals[0]) + options.position_tolerance;
   }
   if (chain.any_limits()) return false;
   const int rows = 3 * goals.size;
