@@ -557,8 +557,8 @@ Chain make_limited_arm(const LimitedArm& arm) {
 // One (arm, goal kind, solver) cell: `trials` FK-made goals, each solved from the middle of the
 // limits. Full pose = tip position + tip orientation, the orientation weighted by L^2 (a radian
 // counts like one chain length).
-std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverSpec& spec, int trials,
-                            std::string& table) {
+std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverSpec& spec, int restarts,
+                            int trials, std::string& table) {
   const Chain chain = make_limited_arm(arm);
   const int n = chain.dof_count();
   const double length = chain.total_length();
@@ -567,11 +567,12 @@ std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverS
   o.orientation_tolerance = 1e-4;
   o.max_iterations = spec.max_iterations;
   o.warm_start = true;
+  o.max_restarts = restarts;
   ikchain::Workspace ws(chain, 2), fk(chain, 1);
   Eigen::VectorXd middle(n), truth(n), params(n);
   for (int i = 0; i < n; ++i) middle[i] = 0.5 * (arm.lower[i] + arm.upper[i]);
   std::mt19937 rng(77u + (full_pose ? 1000u : 0u) + static_cast<unsigned>(n));
-  std::vector<double> us, iterations;
+  std::vector<double> us, iterations, restart_counts;
   std::map<std::string, int> reasons;
   int successes = 0;
   for (int t = 0; t < trials; ++t) {
@@ -585,6 +586,7 @@ std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverS
         ikchain::solve(spec.kind, chain, ikchain::Span<const ikchain::Goal>(goals, full_pose ? 2 : 1), o, ws, params);
     us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
     iterations.push_back(r.iterations);
+    restart_counts.push_back(r.restarts);
     ++reasons[ikchain::to_string(r.reason)];
     ikchain::forward_kinematics(chain, params.data(), fk);
     const double position_error = glm::length(fk.tip - goals[0].target_position);
@@ -597,17 +599,21 @@ std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverS
     successes += ok;
   }
   const double rate = static_cast<double>(successes) / trials;
+  const std::string name = std::string(spec.name) + (restarts > 0 ? "+restarts" : "");
   char line[256];
-  std::snprintf(line, sizeof(line), "  %-5s %-9s %-14s %7.2f %%  median %8.1f us  p99 %9.1f us  median it %5.0f\n",
-                arm.name, full_pose ? "full_pose" : "position", spec.name, 100.0 * rate, quantile(us, 0.5),
-                quantile(us, 0.99), quantile(iterations, 0.5));
+  std::snprintf(line, sizeof(line),
+                "  %-5s %-9s %-22s %7.2f %%  median %8.1f us  p99 %9.1f us  median it %5.0f  p99 restarts %3.0f\n",
+                arm.name, full_pose ? "full_pose" : "position", name.c_str(), 100.0 * rate, quantile(us, 0.5),
+                quantile(us, 0.99), quantile(iterations, 0.5), quantile(restart_counts, 0.99));
   table += line;
   std::string s = "{";
   s += "\"arm\": " + json_string(arm.name);
   s += ", \"goal\": " + json_string(full_pose ? "full_pose" : "position");
   s += ", \"solver\": " + json_string(spec.name);
+  s += ", \"max_restarts\": " + std::to_string(restarts);
   s += ", \"trials\": " + std::to_string(trials);
   s += ", \"success_rate\": " + json_number(rate, "%.4f");
+  s += ", \"p99_restarts\": " + json_number(quantile(restart_counts, 0.99));
   s += ", \"median_us\": " + json_number(quantile(us, 0.5), "%.4g");
   s += ", \"p90_us\": " + json_number(quantile(us, 0.9), "%.4g");
   s += ", \"p99_us\": " + json_number(quantile(us, 0.99), "%.4g");
@@ -664,6 +670,8 @@ std::string run_budget_cell(const SolverSpec& spec, double budget_us, int trials
   return s;
 }
 
+constexpr int kBenchRestarts = 20;
+
 bool write_limits_json(const std::string& out_dir, bool quick) {
   std::string records, table = "limits on (success by our FK, within limits):\n";
   const int trials = quick ? 100 : 2000;
@@ -671,7 +679,10 @@ bool write_limits_json(const std::string& out_dir, bool quick) {
     for (bool full_pose : {false, true})
       for (const SolverSpec& spec : solver_specs()) {
         if (spec.is_kdl || spec.kind == SolverKind::kTwoBone) continue;
-        records += (records.empty() ? "\n  " : ",\n  ") + run_limits_cell(arm, full_pose, spec, trials, table);
+        records += (records.empty() ? "\n  " : ",\n  ") + run_limits_cell(arm, full_pose, spec, 0, trials, table);
+        // Seeded restarts (off by default) for the Newton-like solvers.
+        if (spec.kind == SolverKind::kDLS || spec.kind == SolverKind::kJacobianPinv || spec.kind == SolverKind::kBFGS)
+          records += ",\n  " + run_limits_cell(arm, full_pose, spec, kBenchRestarts, trials, table);
       }
   std::string budget;
   table += "time budget, 100-joint chain:\n";

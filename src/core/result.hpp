@@ -35,6 +35,7 @@ struct SolveResult {
   // True when the solver stopped because SolverOptions::time_budget_usec ran out (reason is then
   // kMaxIterations, or kUnreachable when the pose it stopped at is provably a best reach).
   bool budget_exhausted = false;
+  int restarts = 0;  // restarts run (SolverOptions::max_restarts); iterations include theirs
   Message message;          // why, for kInvalidInput (names the bad field); empty otherwise
 
   // Derived from the reason, so the two can never disagree (Ceres' IsSolutionUsable()): false only

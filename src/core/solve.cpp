@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cmath>
 
 #include "core/kinematics.hpp"
@@ -165,6 +166,97 @@ bool apply_pole(const Chain& chain, Span<const Goal> goals, const SolverOptions&
   return false;
 }
 
+SolverStatus run_solver(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                        Workspace& ws, double* p) {
+  switch (kind) {
+    case SolverKind::kTwoBone: return solve_two_bone(chain, goals, options, ws, p);
+    case SolverKind::kCCD: return solve_ccd(chain, goals, options, ws, p);
+    case SolverKind::kJacobianPinv: return solve_jacobian_pinv(chain, goals, options, ws, p);
+    case SolverKind::kDLS: return solve_dls(chain, goals, options, ws, p);
+    case SolverKind::kBFGS: return solve_bfgs(chain, goals, options, ws, p);
+    case SolverKind::kFABRIK: return solve_fabrik(chain, goals, options, ws, p);
+  }
+  SolverStatus status;
+  status.reason = TerminationReason::kInvalidInput;
+  status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
+  return status;
+}
+
+// SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", 2014): a
+// few lines, no state beyond one word, no allocation; uniform doubles in [0, 1).
+struct SplitMix64 {
+  uint64_t state;
+  double uniform() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0);
+  }
+};
+
+// A random pose within the limits: limited hinges uniform in their range, free hinges in
+// [-pi, pi], ball joints a uniformly random axis and angle in [0, pi), projected onto their limits.
+void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
+  for (int i = 0; i < chain.joint_count(); ++i) {
+    const int o = chain.dof_offset(i);
+    if (chain.joint_type(i) == JointType::kHinge) {
+      const JointLimits& l = chain.limits(i);
+      const double lo = l.has_hinge_limit ? l.hinge_min : -so3::kPi;
+      const double hi = l.has_hinge_limit ? l.hinge_max : so3::kPi;
+      params[o] = lo + (hi - lo) * rng.uniform();
+    } else {
+      const double z = 2.0 * rng.uniform() - 1.0, phi = 2.0 * so3::kPi * rng.uniform();
+      const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const double angle = so3::kPi * rng.uniform();
+      params[o] = angle * r * std::cos(phi);
+      params[o + 1] = angle * r * std::sin(phi);
+      params[o + 2] = angle * z;
+    }
+  }
+  project_to_limits(chain, params);
+}
+
+// Seeded restarts (SolverOptions::max_restarts): while the goals are unmet, not provably out of
+// reach, restarts are left and the time budget is not spent, the solver runs again from a random
+// pose within the limits; the best pose over every run is kept (params, status). One mechanism for
+// every solver: what a run does when stuck stays the solver's business, this only decides whether
+// to try elsewhere.
+void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                  Workspace& ws, double* p, SolverStatus& status, int& restarts) {
+  if (options.max_restarts <= 0 || kind == SolverKind::kTwoBone) return;
+  if (status.reason == TerminationReason::kConverged || status.reason == TerminationReason::kInvalidInput) return;
+  if (provably_out_of_reach(chain, goals, options.position_tolerance)) return;
+  const int dofs = chain.dof_count();
+  SplitMix64 rng{options.restart_seed};
+  forward_kinematics(chain, p, ws);
+  double best_cost = measure_goals(chain, goals, ws).cost;
+  if (!std::isfinite(best_cost)) best_cost = INFINITY;
+  std::copy(p, p + dofs, ws.params_restart_best.data());
+  SolverStatus best = status;
+  int iterations = status.iterations;
+  while (restarts < options.max_restarts && !ws.deadline.hit && !ws.deadline.spent()) {
+    ++restarts;
+    random_pose(chain, rng, p);
+    SolverStatus run = run_solver(kind, chain, goals, options, ws, p);
+    iterations += run.iterations;
+    if (run.reason == TerminationReason::kInvalidInput) break;
+    forward_kinematics(chain, p, ws);
+    const GoalErrors err = measure_goals(chain, goals, ws);
+    if (err.cost < best_cost) {  // NaN compares false
+      best_cost = err.cost;
+      std::copy(p, p + dofs, ws.params_restart_best.data());
+      run.start = status.start;  // the reported start stays the caller's
+      run.start_measured = status.start_measured;
+      best = run;
+      if (err.within(options)) break;
+    }
+  }
+  std::copy(ws.params_restart_best.data(), ws.params_restart_best.data() + dofs, p);
+  status = best;
+  status.iterations = iterations;
+}
+
 }  // namespace
 
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
@@ -250,17 +342,8 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (!self_measured && err.within(options)) {
     status.reason = TerminationReason::kConverged;
   } else {
-    switch (kind) {
-      case SolverKind::kTwoBone: status = solve_two_bone(chain, goals, options, ws, p); break;
-      case SolverKind::kCCD: status = solve_ccd(chain, goals, options, ws, p); break;
-      case SolverKind::kJacobianPinv: status = solve_jacobian_pinv(chain, goals, options, ws, p); break;
-      case SolverKind::kDLS: status = solve_dls(chain, goals, options, ws, p); break;
-      case SolverKind::kBFGS: status = solve_bfgs(chain, goals, options, ws, p); break;
-      case SolverKind::kFABRIK: status = solve_fabrik(chain, goals, options, ws, p); break;
-      default:
-        status.reason = TerminationReason::kInvalidInput;
-        status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
-    }
+    status = run_solver(kind, chain, goals, options, ws, p);
+    run_restarts(kind, chain, goals, options, ws, p, status, result.restarts);
   }
   const GoalErrors& start_err = self_measured ? status.start : err;
   result.initial_error = start_err.combined;
