@@ -45,6 +45,7 @@ Message SolverOptions::validate() const {
                            bfgs_wolfe_c1, bfgs_wolfe_c2);
   if (bfgs_max_line_search_steps <= 0)
     return Message::format("bfgs_max_line_search_steps must be > 0, got %d", bfgs_max_line_search_steps);
+  if (max_restarts < 0) return Message::format("max_restarts must be >= 0 (0 = none), got %d", max_restarts);
   if (!(std::isfinite(time_budget_usec) && time_budget_usec >= 0.0))
     return Message::format("time_budget_usec must be >= 0 (0 = no budget), got %g", time_budget_usec);
   if (use_pole && !(std::isfinite(pole_in_base.x) && std::isfinite(pole_in_base.y) && std::isfinite(pole_in_base.z)))

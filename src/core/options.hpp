@@ -34,6 +34,13 @@ struct SolverOptions {
   // the steady clock, so a solve overruns it by at most the iteration in progress; the result then
   // has reason kMaxIterations and budget_exhausted = true, with the best pose reached so far.
   double time_budget_usec = 0.0;
+  // Restarts (off by default: a game wants frame-to-frame continuity, and a restart may jump to
+  // another branch). When a solve ends without meeting its goals and they are not provably out of
+  // reach, it is run again from up to max_restarts random poses within the limits, drawn from a
+  // generator seeded with restart_seed (the same seed gives the same poses, so the same result);
+  // the best pose over all runs is kept. Iterations and the time budget count every run.
+  int max_restarts = 0;        // >= 0
+  unsigned restart_seed = 1;   // any value
 
   // --- pole (every solver)
   // A point in base space the chain's middle should bend toward (a knee or an elbow "pole vector").
