@@ -23,6 +23,12 @@
 
 namespace ikchain {
 
+// The largest magnitude the core accepts for a coordinate (offsets, targets, pole; m), a joint
+// parameter (rad) or a goal weight. Squared errors of 200 such terms stay ~1e70 from overflow, so
+// every error, cost and Jacobian entry of a valid input is finite; anything larger is rejected by
+// name rather than turned into inf or a silently zero direction.
+constexpr double kMaxMagnitude = 1e30;
+
 enum class JointType : uint8_t {
   kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)
   kHinge = 1,  // 1 rotational DOF about hinge_axis, param: angle (radians)

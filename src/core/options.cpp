@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "core/chain.hpp"
+
 namespace ikchain {
 
 const char* to_string(SolverKind kind) {
@@ -29,8 +31,8 @@ Message SolverOptions::validate() const {
     return Message::format("max_step_angle must be >= 0 (0 = no cap), got %g", max_step_angle);
   if (!(positive(pinv_residual_tolerance) && pinv_residual_tolerance <= 1.0))
     return Message::format("pinv_residual_tolerance must be in (0, 1], got %g", pinv_residual_tolerance);
-  if (pinv_max_halvings < 0)
-    return Message::format("pinv_max_halvings must be >= 0, got %d", pinv_max_halvings);
+  if (pinv_max_halvings < 0 || pinv_max_halvings > kMaxPinvHalvings)
+    return Message::format("pinv_max_halvings must be in [0, %d], got %d", kMaxPinvHalvings, pinv_max_halvings);
   if (!positive(pinv_singular_threshold))
     return Message::format("pinv_singular_threshold must be > 0, got %g", pinv_singular_threshold);
   if (!positive(dls_min_damping))
@@ -45,8 +47,10 @@ Message SolverOptions::validate() const {
                            bfgs_wolfe_c1, bfgs_wolfe_c2);
   if (bfgs_max_line_search_steps <= 0)
     return Message::format("bfgs_max_line_search_steps must be > 0, got %d", bfgs_max_line_search_steps);
-  if (two_bone_use_pole && !(std::isfinite(pole_x) && std::isfinite(pole_y) && std::isfinite(pole_z)))
-    return Message::format("pole position must be finite");
+  auto coordinate = [](double v) { return std::abs(v) <= kMaxMagnitude; };  // false for NaN
+  if (two_bone_use_pole && !(coordinate(pole_x) && coordinate(pole_y) && coordinate(pole_z)))
+    return Message::format("pole position (%g, %g, %g) must be finite, each component within +-%g m", pole_x,
+                           pole_y, pole_z, kMaxMagnitude);
   return Message();
 }
 

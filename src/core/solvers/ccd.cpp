@@ -47,7 +47,7 @@ namespace ikchain {
 
 namespace {
 
-constexpr int kMaxGoals = 16;
+constexpr int kMaxGoals = kCcdMaxGoals;
 
 // An effector a goal is attached to, tracked through the sweep.
 struct Tracked {
