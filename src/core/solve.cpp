@@ -82,8 +82,8 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
   }
   for (int i = 0; i < goals.size; ++i) {
     const Goal& g = goals[i];
-    if (!(g.weight > 0.0 && g.weight <= kMaxMagnitude))
-      return Message::format("goal %d: weight must be > 0 and <= %g, got %g", i, kMaxMagnitude, g.weight);
+    if (!(g.weight > 0.0 && g.weight <= kMaxWeight))
+      return Message::format("goal %d: weight must be > 0 and <= %g, got %g", i, kMaxWeight, g.weight);
     if (g.effector < 0 || g.effector > chain.joint_count())
       return Message::format("goal %d: effector must be in 0..%d, got %d", i, chain.joint_count(), g.effector);
     switch (g.kind) {

@@ -84,6 +84,14 @@ struct Pose {
   glm::dvec3 tip{0.0};
 };
 
+// Normalised without overflow in the squares: divide by the largest component first.
+template <typename V>
+V unit(const V& v) {
+  double m = 0.0;
+  for (int i = 0; i < V::length(); ++i) m = std::max(m, std::abs(v[i]));
+  return glm::normalize(v / m);
+}
+
 Pose reference_fk(const std::vector<JointDesc>& joints, const glm::dvec3& tip_offset, const double* params) {
   Pose pose;
   glm::dvec3 origin(0.0);
@@ -91,9 +99,9 @@ Pose reference_fk(const std::vector<JointDesc>& joints, const glm::dvec3& tip_of
   int o = 0;
   for (const JointDesc& j : joints) {
     origin += q * j.offset_translation;
-    q = q * glm::normalize(j.rest_rotation);
+    q = q * unit(j.rest_rotation);
     if (j.type == JointType::kHinge) {
-      q = q * glm::angleAxis(params[o], glm::normalize(j.hinge_axis));
+      q = q * glm::angleAxis(params[o], unit(j.hinge_axis));
       o += 1;
     } else {
       const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
@@ -301,6 +309,46 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // ---------------------------------------------------------------- the solve
   const SolveResult r = solve(kind, chain, goals, o, ws, params);
   count(kind, r.reason);
+  if (std::getenv("IKCHAIN_FUZZ_DUMP")) {  // the decoded input, to turn a finding into a test
+    std::fprintf(stderr, "chain: %d joints, build '%s'\n", n, built.c_str());
+    for (int i = 0; i < n; ++i) {
+      const JointDesc& j = joints[i];
+      const JointLimits& l = j.limits;
+      std::fprintf(stderr,
+                   "  joint %d type %d offset (%.17g, %.17g, %.17g) rest (%.17g, %.17g, %.17g, %.17g) hinge_axis "
+                   "(%.17g, %.17g, %.17g)\n    hinge %d [%.17g, %.17g] cone %d %.17g twist %d [%.17g, %.17g] "
+                   "twist_axis (%.17g, %.17g, %.17g)\n",
+                   i, static_cast<int>(j.type), j.offset_translation.x, j.offset_translation.y,
+                   j.offset_translation.z, j.rest_rotation.w, j.rest_rotation.x, j.rest_rotation.y, j.rest_rotation.z,
+                   j.hinge_axis.x, j.hinge_axis.y, j.hinge_axis.z, l.has_hinge_limit, l.hinge_min, l.hinge_max,
+                   l.has_cone_limit, l.cone_angle, l.has_twist_limit, l.twist_min, l.twist_max, l.twist_axis.x,
+                   l.twist_axis.y, l.twist_axis.z);
+    }
+    std::fprintf(stderr, "  tip_offset (%.17g, %.17g, %.17g)\n", tip_offset.x, tip_offset.y, tip_offset.z);
+    for (const Goal& g : goals) {
+      std::fprintf(stderr,
+                   "goal kind %d effector %d weight %.17g pos (%.17g, %.17g, %.17g) q (%.17g, %.17g, %.17g, %.17g) "
+                   "aim (%.17g, %.17g, %.17g) -> (%.17g, %.17g, %.17g)\n",
+                   static_cast<int>(g.kind), g.effector, g.weight, g.target_position.x, g.target_position.y,
+                   g.target_position.z, g.target_orientation.w, g.target_orientation.x, g.target_orientation.y,
+                   g.target_orientation.z, g.aim_axis.x, g.aim_axis.y, g.aim_axis.z, g.aim_direction.x,
+                   g.aim_direction.y, g.aim_direction.z);
+    }
+    std::fprintf(stderr,
+                 "options: max_iterations %d pos_tol %.17g ori_tol %.17g stall %.17g warm %d max_step %.17g "
+                 "pinv_res %.17g halvings %d pinv_sing %.17g dls %.17g/%.17g/%.17g wolfe %.17g/%.17g ls %d pole %d "
+                 "(%.17g, %.17g, %.17g)\n",
+                 o.max_iterations, o.position_tolerance, o.orientation_tolerance, o.stall_tolerance, o.warm_start,
+                 o.max_step_angle, o.pinv_residual_tolerance, o.pinv_max_halvings, o.pinv_singular_threshold,
+                 o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping, o.bfgs_wolfe_c1, o.bfgs_wolfe_c2,
+                 o.bfgs_max_line_search_steps, o.two_bone_use_pole, o.pole_x, o.pole_y, o.pole_z);
+    std::fprintf(stderr, "solver %d, workspace goals %d, params:", static_cast<int>(kind), ws_goals);
+    for (int i = 0; i < input.size(); ++i) std::fprintf(stderr, " %.17g", input[i]);
+    std::fprintf(stderr, "\nresult: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
+                 r.iterations, r.initial_error, r.final_error, r.message.c_str());
+    for (int i = 0; i < params.size(); ++i) std::fprintf(stderr, " %.17g", params[i]);
+    std::fprintf(stderr, "\n");
+  }
 
   REQUIRE(all_finite(r.initial_error) && all_finite(r.final_error) && all_finite(r.initial_position_error) &&
               all_finite(r.final_position_error) && all_finite(r.initial_orientation_error) &&
