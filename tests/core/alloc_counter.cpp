@@ -6,7 +6,9 @@
 #if defined(__SANITIZE_ADDRESS__)
 // ASan owns malloc (interposing it here crashes its start-up): count through its allocator hook,
 // which sees every allocation, malloc and operator new alike.
-#include <sanitizer/allocator_interface.h>
+// From compiler-rt's <sanitizer/allocator_interface.h> (clang ships it, GCC does not).
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, std::size_t),
+                                                         void (*free_hook)(const volatile void*));
 #endif
 
 #if !defined(__SANITIZE_ADDRESS__)

@@ -9,6 +9,7 @@
 //  - no NaN/inf in any output (result fields, params);
 //  - invalid input: params bit-identical to the input and a non-empty message;
 //  - iterations <= max_iterations;
+//  - solving the same input again on the same workspace gives the same verdict and pose, bit for bit;
 //  - the returned pose respects the joint limits;
 //  - "converged" => every goal within tolerance by an independent FK (plain GLM, none of the core's
 //    fast paths), and the reported final error agrees with that FK;
@@ -371,6 +372,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   REQUIRE(r.iterations <= o.max_iterations, "iterations > max_iterations", r.iterations, o.max_iterations);
   REQUIRE(params.allFinite(), "non-finite params");
   REQUIRE(within_limits(chain, params.data(), 1e-6), "returned pose violates the limits");
+
+  // The same input again, on the same (now dirty) workspace: the same verdict and pose, bit for bit
+  // (nothing may depend on what a previous solve left in the workspace).
+  {
+    Eigen::VectorXd again = input;
+    const SolveResult r2 = solve(kind, chain, goals, o, ws, again);
+    REQUIRE(r2.reason == r.reason && r2.iterations == r.iterations, "a repeated solve gave another verdict",
+            static_cast<double>(r.reason), static_cast<double>(r2.reason));
+    REQUIRE(std::memcmp(again.data(), params.data(), sizeof(double) * params.size()) == 0,
+            "a repeated solve gave another pose");
+  }
 
   // The start pose, as solve() defines it: the input (warm) or rest, projected onto the limits.
   Eigen::VectorXd start = o.warm_start ? input : Eigen::VectorXd::Zero(dofs);
