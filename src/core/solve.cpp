@@ -24,9 +24,17 @@ const char* to_string(TerminationReason reason) {
 
 namespace {
 
-bool finite3(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+// Every component finite and within +-kMaxMagnitude (false for NaN).
+bool bounded3(const glm::dvec3& v) {
+  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
+}
 
-bool params_finite(const Eigen::Ref<const Eigen::VectorXd>& p) { return p.allFinite(); }
+// The start pose solve() defines: the caller's params (warm start) or the rest pose, projected onto
+// the limits. Recomputed from the backup when a solve must fall back to it.
+void make_start_pose(const Chain& chain, const SolverOptions& options, Eigen::Ref<Eigen::VectorXd> params) {
+  if (!options.warm_start) params.setZero();
+  project_to_limits(chain, params.data());
+}
 
 // Largest distance effector k (1..n) can be from the root joint's origin o_0: the bones before it.
 double reach_of(const Chain& chain, int k) {
@@ -271,16 +279,25 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
   if (params.size() != chain.dof_count())
     return Message::format("params has %d entries, the chain has %d DOF", static_cast<int>(params.size()),
                            chain.dof_count());
-  if (!params_finite(params)) return Message::format("params contain NaN or inf");
+  if (!params.allFinite()) return Message::format("params contain NaN or inf");
+  for (int i = 0; i < params.size(); ++i) {
+    // A ball joint's rotation vector beyond ~1e154 has an infinite squared angle: NaN in FK.
+    if (!(std::abs(params[i]) <= kMaxMagnitude))
+      return Message::format("params[%d] is %g: joint parameters must be within +-%g rad", i, params[i],
+                             kMaxMagnitude);
+  }
   for (int i = 0; i < goals.size; ++i) {
     const Goal& g = goals[i];
-    if (!(std::isfinite(g.weight) && g.weight > 0.0))
-      return Message::format("goal %d: weight must be > 0, got %g", i, g.weight);
+    if (!(g.weight > 0.0 && g.weight <= kMaxWeight))
+      return Message::format("goal %d: weight must be > 0 and <= %g, got %g", i, kMaxWeight, g.weight);
     if (g.effector < 0 || g.effector > chain.joint_count())
       return Message::format("goal %d: effector must be in 0..%d, got %d", i, chain.joint_count(), g.effector);
     switch (g.kind) {
       case GoalKind::kPosition:
-        if (!finite3(g.target_position)) return Message::format("goal %d: target_position is not finite", i);
+        if (!bounded3(g.target_position))
+          return Message::format("goal %d: target_position (%g, %g, %g) must be finite, each component within "
+                                 "+-%g m", i, g.target_position.x, g.target_position.y, g.target_position.z,
+                                 kMaxMagnitude);
         break;
       case GoalKind::kOrientation: {
         const glm::dquat& q = g.target_orientation;
@@ -290,10 +307,14 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
         break;
       }
       case GoalKind::kAim:
-        if (!finite3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
-          return Message::format("goal %d: aim_axis must be a finite non-zero vector", i);
-        if (!finite3(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
-          return Message::format("goal %d: aim_direction must be a finite non-zero vector", i);
+        // Bounded: normalising (1e200, 0, 0) divides by an infinite length and gives the zero vector,
+        // which would read as "aim met".
+        if (!bounded3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+          return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
+                                 kMaxMagnitude);
+        if (!bounded3(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
+          return Message::format("goal %d: aim_direction must be a non-zero vector, each component within +-%g", i,
+                                 kMaxMagnitude);
         break;
       case GoalKind::kAimAt:
         if (!finite3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
@@ -308,6 +329,34 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
   return Message();
 }
 
+Message validate_inputs(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                        const Workspace& ws, const Eigen::Ref<const Eigen::VectorXd>& params) {
+  Message m = validate_inputs(chain, goals, options, ws, params);
+  if (!m.empty()) return m;
+  switch (kind) {
+    case SolverKind::kTwoBone:
+      if (chain.joint_count() != 2)
+        return Message::format("two_bone needs a chain of exactly 2 joints, got %d", chain.joint_count());
+      if (goals.size != 1 || goals[0].kind != GoalKind::kPosition || resolve_effector(chain, goals[0].effector) != 2)
+        return Message::format(
+            "two_bone takes exactly 1 goal, a position goal on the tip (effector 0 or 2); got %d goal(s)",
+            goals.size);
+      break;
+    case SolverKind::kCCD:
+      if (goals.size > kCcdMaxGoals)
+        return Message::format("ccd supports at most %d goals, got %d", kCcdMaxGoals, goals.size);
+      break;
+    case SolverKind::kJacobianPinv:
+    case SolverKind::kDLS:
+    case SolverKind::kBFGS:
+    case SolverKind::kFABRIK:
+      break;
+    default:
+      return Message::format("solver kind %d is unknown (0..%d)", static_cast<int>(kind), kSolverKindCount - 1);
+  }
+  return Message();
+}
+
 SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                   Workspace& ws, Eigen::Ref<Eigen::VectorXd> params) {
   using Clock = std::chrono::steady_clock;
@@ -318,7 +367,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     return result;
   };
 
-  result.message = validate_inputs(chain, goals, options, ws, params);
+  result.message = validate_inputs(kind, chain, goals, options, ws, params);
   if (!result.message.empty()) {
     result.reason = TerminationReason::kInvalidInput;
     return finish();
@@ -329,8 +378,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 
   // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured
   // here unless the solver measures it itself (solver_measures_start).
-  if (!options.warm_start) params.setZero();
-  project_to_limits(chain, p);
+  make_start_pose(chain, options, params);
   GoalErrors err;
   SolverStatus status;
   const bool self_measured = solver_measures_start(kind);
@@ -345,7 +393,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     status = run_solver(kind, chain, goals, options, ws, p);
     run_restarts(kind, chain, goals, options, ws, p, status, result.restarts);
   }
-  const GoalErrors& start_err = self_measured ? status.start : err;
+  const GoalErrors start_err = self_measured ? status.start : err;
   result.initial_error = start_err.combined;
   result.initial_position_error = start_err.max_position;
   result.initial_orientation_error = start_err.max_orientation;
@@ -354,15 +402,17 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   result.message = status.message;
 
   bool restored = false;
-  if (status.reason == TerminationReason::kInvalidInput || !params.allFinite()) {
-    // Nothing non-finite ever reaches the caller: the pose goes back to what it was.
-    params = ws.params_backup;
+  if (status.reason == TerminationReason::kInvalidInput) {
+    params = ws.params_backup;  // untouched, as promised for invalid input
     restored = true;
-    if (status.reason != TerminationReason::kInvalidInput) {
-      result.reason = TerminationReason::kStalled;
-      result.message = Message::format("%s produced a non-finite pose; the input pose was kept",
-                                       to_string(kind));
-    }
+  } else if (!params.allFinite()) {
+    // Nothing non-finite ever reaches the caller: back to the start pose (finite and within the
+    // limits; the caller's own pose may violate them).
+    params = ws.params_backup;
+    make_start_pose(chain, options, params);
+    restored = true;
+    result.reason = TerminationReason::kStalled;
+    result.message = Message::format("%s produced a non-finite pose; the start pose was kept", to_string(kind));
   }
 
   // The final pose's errors: the solver's own measurement when it is of exactly these params and
@@ -376,6 +426,15 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (trust_final) {
     err = status.final;
   } else {
+    forward_kinematics(chain, p, ws);
+    err = measure_goals(chain, goals, ws);
+  }
+  if (!restored && !(err.cost <= start_err.cost)) {
+    // Never worse than the start by the solve's own objective (or non-finite): a solver that ends
+    // above it (the pseudo-inverse stalling on an unreachable target with a limited root did) gives
+    // the start pose back.
+    params = ws.params_backup;
+    make_start_pose(chain, options, params);
     forward_kinematics(chain, p, ws);
     err = measure_goals(chain, goals, ws);
   }
