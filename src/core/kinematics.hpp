@@ -36,6 +36,14 @@ glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int eff
 bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
                       double& distance);
 
+// Goal::pose with the chain's length as the characteristic length, times rotation_weight (1: a
+// radian of orientation error counts like one chain length of position error).
+inline std::array<Goal, 2> pose_goals(const Chain& chain, const glm::dvec3& position_in_base,
+                                      const glm::dquat& orientation_in_base, int effector = 0,
+                                      double rotation_weight = 1.0) {
+  return Goal::pose(position_in_base, orientation_in_base, rotation_weight * chain.total_length(), effector);
+}
+
 // World rotation axis of every DOF: ws.dof_axes. For a ball joint these are the columns of
 // pre_rotation * J_l(r), so that d(params) maps exactly to world angular velocity.
 // Valid after forward_kinematics().

@@ -324,7 +324,8 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     return finish();
   }
   ws.params_backup = params;
-  ws.deadline.start(options.time_budget_usec, ws.deadline.now_us());
+  // The clock is read only for a budget (a 10-joint DLS solve takes ~2.5 us; a clock read ~25 ns).
+  ws.deadline.start(options.time_budget_usec, options.time_budget_usec > 0.0 ? ws.deadline.now_us() : 0.0);
   double* p = params.data();
 
   // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured
