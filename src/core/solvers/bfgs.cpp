@@ -24,8 +24,7 @@
 //  - O(n^2) per iteration: one H g product and the rank-2 update, both in place on the lower
 //    triangle of ws.dof_square (H is symmetric; halving the memory traffic is what counts for long
 //    chains); no allocation.
-//  Measured (rest pose -> random reachable target, tolerance 1e-5 L, hinge chain n = 3/10/30/100):
-//  median 7 / 12 / 37 / 170 us, 16 / 11 / 10 / 10 iterations; 100% converged within 100 iterations.
+//  Timings and success rates: docs/benchmarks.md (scripts/bench), not here, where they go stale.
 //
 // Parameters. Trial points are params + alpha d with no wrapping (FK and the Jacobian accept any
 // rotation vector), so phi(alpha) is smooth. Ball rotation vectors are wrapped to angle <= pi only
