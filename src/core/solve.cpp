@@ -38,6 +38,7 @@ double reach_of(const Chain& chain, int k) {
 // Smallest distance effector k can be from o_0 (triangle inequality): the longest bone before it
 // minus all the others, or 0.
 double inner_reach_of(const Chain& chain, int k) {
+  if (chain.first_prismatic() >= 0) return 0.0;  // bone lengths are upper bounds then
   double longest = 0.0;
   for (int i = 0; i < k; ++i) longest = std::max(longest, chain.bone_length(i));
   return std::max(0.0, 2.0 * longest - reach_of(chain, k));
@@ -200,7 +201,7 @@ struct SplitMix64 {
 void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
   for (int i = 0; i < chain.joint_count(); ++i) {
     const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) == JointType::kHinge) {
+    if (chain.joint_type(i) != JointType::kBall) {  // prismatic joints always have a range
       const JointLimits& l = chain.limits(i);
       const double lo = l.has_hinge_limit ? l.hinge_min : -so3::kPi;
       const double hi = l.has_hinge_limit ? l.hinge_max : so3::kPi;

@@ -151,7 +151,7 @@ class Bfgs {
     double m = 0.0;
     for (int i = 0; i < chain_.joint_count(); ++i) {
       const int o = chain_.dof_offset(i);
-      const double rot = chain_.joint_type(i) == JointType::kHinge
+      const double rot = chain_.joint_type(i) != JointType::kBall  // a slide counts metres as radians
                              ? std::abs(d[o])
                              : std::sqrt(d[o] * d[o] + d[o + 1] * d[o + 1] + d[o + 2] * d[o + 2]);
       m = std::max(m, rot);
