@@ -167,16 +167,25 @@ bool apply_pole(const Chain& chain, Span<const Goal> goals, const SolverOptions&
   return false;
 }
 
+using SolveFn = SolverStatus (*)(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double*);
+
+// The solver table (solve.hpp) and the function of each row, in SolverKind order.
+const SolverInfo kSolverTable[] = {
+    {SolverKind::kTwoBone, "two_bone", "Two Bone", 2, false, false, false, false},
+    {SolverKind::kCCD, "ccd", "Cyclic Coordinate Descent", 0, true, true, true, false},
+    {SolverKind::kJacobianPinv, "jacobian_pinv", "Jacobian Pseudo-Inverse", 0, true, true, true, true},
+    {SolverKind::kDLS, "dls", "Damped Least Squares", 0, true, true, true, true},
+    {SolverKind::kBFGS, "bfgs", "BFGS", 0, true, true, true, true},
+    {SolverKind::kFABRIK, "fabrik", "FABRIK", 0, true, false, true, false},
+};
+const SolveFn kSolverFunctions[] = {solve_two_bone, solve_ccd, solve_jacobian_pinv, solve_dls, solve_bfgs, solve_fabrik};
+static_assert(sizeof(kSolverTable) / sizeof(kSolverTable[0]) == kSolverKindCount, "one table row per SolverKind");
+static_assert(sizeof(kSolverFunctions) / sizeof(kSolverFunctions[0]) == kSolverKindCount, "one function per row");
+
 SolverStatus run_solver(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         Workspace& ws, double* p) {
-  switch (kind) {
-    case SolverKind::kTwoBone: return solve_two_bone(chain, goals, options, ws, p);
-    case SolverKind::kCCD: return solve_ccd(chain, goals, options, ws, p);
-    case SolverKind::kJacobianPinv: return solve_jacobian_pinv(chain, goals, options, ws, p);
-    case SolverKind::kDLS: return solve_dls(chain, goals, options, ws, p);
-    case SolverKind::kBFGS: return solve_bfgs(chain, goals, options, ws, p);
-    case SolverKind::kFABRIK: return solve_fabrik(chain, goals, options, ws, p);
-  }
+  const int k = static_cast<int>(kind);
+  if (k >= 0 && k < kSolverKindCount) return kSolverFunctions[k](chain, goals, options, ws, p);
   SolverStatus status;
   status.reason = TerminationReason::kInvalidInput;
   status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
@@ -259,6 +268,10 @@ void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 }
 
 }  // namespace
+
+Span<const SolverInfo> solver_table() { return Span<const SolverInfo>(kSolverTable, kSolverKindCount); }
+
+const SolverInfo& solver_info(SolverKind kind) { return kSolverTable[static_cast<int>(kind)]; }
 
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         const Workspace& ws, const Eigen::Ref<const Eigen::VectorXd>& params) {
