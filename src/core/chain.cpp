@@ -1,5 +1,6 @@
 #include "core/chain.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/kinematics.hpp"
@@ -56,7 +57,7 @@ void ChainBuilder::clear() {
 
 bool Chain::has_limits(int i) const {
   const JointLimits& l = limits_[i];
-  return joint_type(i) == JointType::kHinge ? l.has_hinge_limit
+  return joint_type(i) != JointType::kBall ? l.has_hinge_limit
                                             : (l.has_cone_limit || l.has_twist_limit);
 }
 
@@ -90,7 +91,17 @@ Message ChainBuilder::build(Chain& out) const {
     JointLimits l = j.limits;
     // The axis a joint type does not use is stored as its default, so the chain holds no NaN.
     glm::dvec3 axis(0.0, 0.0, 1.0);
-    if (j.type == JointType::kHinge) {
+    if (j.type == JointType::kPrismatic) {
+      axis = j.hinge_axis;
+      l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
+      const double len = scaled_length(axis);
+      if (!std::isfinite(len) || len < 1e-9)
+        return Message::format("joint %d: hinge_axis (the slide axis) must be a finite non-zero vector", i);
+      axis /= len;
+      if (!l.has_hinge_limit || !bounded(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
+        return Message::format("joint %d: a prismatic joint needs has_hinge_limit with finite hinge_min <= hinge_max "
+                               "(its slide range, m)", i);
+    } else if (j.type == JointType::kHinge) {
       axis = j.hinge_axis;
       l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
       const double len = scaled_length(axis);
@@ -144,6 +155,10 @@ Message ChainBuilder::build(Chain& out) const {
   for (int i = 0; i < n; ++i) {
     const glm::dvec3& next = (i + 1 < n) ? c.joints_[i + 1].offset_translation : tip_offset_;
     c.bone_lengths_[i] = glm::length(next);
+    if (c.joint_type(i) == JointType::kPrismatic) {
+      c.bone_lengths_[i] += std::max(std::abs(c.limits_[i].hinge_min), std::abs(c.limits_[i].hinge_max));
+      if (c.first_prismatic_ < 0) c.first_prismatic_ = i;
+    }
     total += c.bone_lengths_[i];
   }
   if (!(total > 1e-9)) return Message::format("zero-length chain: every bone has length 0");

@@ -35,11 +35,16 @@ constexpr double kMaxWeight = 1e30;
 enum class JointType : uint8_t {
   kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)
   kHinge = 1,  // 1 rotational DOF about hinge_axis, param: angle (radians)
+  // 1 translational DOF: the joint slides along hinge_axis (joint space) by its param (m), moving
+  // every later joint and the tip; its frame does not turn. Needs a slide range: has_hinge_limit
+  // with hinge_min / hinge_max in metres (the reach bounds need it). Pursued by the Jacobian
+  // solvers and BFGS; CCD, FABRIK and two-bone turn joints only and reject such chains.
+  kPrismatic = 2,
 };
 
 // Limits are expressed in joint space, relative to the joint's rest orientation.
 struct JointLimits {
-  // Hinge: angle range in radians. Ignored for ball joints.
+  // Hinge: angle range in radians; prismatic: slide range in metres (required). Ignored for ball joints.
   bool has_hinge_limit = false;
   double hinge_min = -3.14159265358979323846;
   double hinge_max = 3.14159265358979323846;
@@ -58,7 +63,7 @@ struct JointDesc {
   JointType type = JointType::kBall;
   glm::dvec3 offset_translation{0.0};        // from the parent joint's frame (or base), chain units (m)
   glm::dquat rest_rotation{1.0, 0.0, 0.0, 0.0};  // from the parent frame, applied before the joint's motion
-  glm::dvec3 hinge_axis{0.0, 0.0, 1.0};      // hinge only: axis in joint space (after rest_rotation)
+  glm::dvec3 hinge_axis{0.0, 0.0, 1.0};      // hinge: rotation axis, prismatic: slide axis, in joint space (after rest_rotation)
   JointLimits limits;
 };
 
@@ -109,13 +114,16 @@ class Chain {
   uint8_t tip_direction() const { return tip_direction_; }
   // True when every joint is a hinge (the Jacobian solvers' step needs no rotation-vector algebra).
   bool all_hinges() const { return all_hinges_; }
+  // The first prismatic joint, or -1 (the geometric solvers reject chains that have one).
+  int first_prismatic() const { return first_prismatic_; }
   const JointLimits& limits(int i) const { return limits_[i]; }
   bool has_limits(int i) const;
   bool any_limits() const { return any_limits_; }
   const glm::dvec3& tip_offset() const { return tip_offset_; }
   const glm::dquat& tip_rotation() const { return tip_rotation_; }
 
-  // Length of bone i (o_i -> o_{i+1}, or o_{n-1} -> tip), independent of the pose (m).
+  // Length of bone i (o_i -> o_{i+1}, or o_{n-1} -> tip), independent of the pose (m); for a
+  // prismatic joint i, the longest it can be (the offset plus the largest slide).
   double bone_length(int i) const { return bone_lengths_[i]; }
   const std::vector<double>& bone_lengths() const { return bone_lengths_; }
   // Sum of bone lengths: the farthest the tip can be from the root joint's origin o_0.
@@ -156,6 +164,7 @@ class Chain {
   std::vector<glm::dquat> rest_rotations_;
   uint8_t tip_direction_ = 0;
   bool all_hinges_ = false;
+  int first_prismatic_ = -1;
   std::vector<JointLimits> limits_;
   std::vector<glm::dvec3> rest_joint_origins_;
   std::vector<glm::dvec3> rest_dof_axes_;

@@ -10,6 +10,7 @@
 //                 0 when the effector sits on the point (no direction to aim along)
 // The objective is 0.5 * sum_g weight_g * |e_g|^2.
 #pragma once
+#include <array>
 #include <cstdint>
 
 #include <glm/glm.hpp>
@@ -55,6 +56,18 @@ struct Goal {
     g.weight = weight;
     return g;
   }
+  // A 6-D pose of one effector as its two goals: position and orientation. The orientation goal
+  // weighs characteristic_length^2 times the position goal, so that one radian of orientation
+  // error costs as much as characteristic_length metres of position error (the objective adds
+  // w_p |dp|^2 + w_o |angle|^2). A principled default is the chain's length (pose_goals() in
+  // kinematics.hpp uses it): a radian then counts like the whole arm's reach, the distance the
+  // tip sweeps when the chain turns by a radian about its root. Larger favours orientation.
+  static std::array<Goal, 2> pose(const glm::dvec3& position_in_base, const glm::dquat& orientation_in_base,
+                                  double characteristic_length, int effector = 0, double weight = 1.0) {
+    return {Goal::position(position_in_base, effector, weight),
+            Goal::orientation(orientation_in_base, effector, weight * characteristic_length * characteristic_length)};
+  }
+
   // The effector's axis_local (its own frame) points at point_in_base.
   static Goal aim_at(const glm::dvec3& point_in_base, const glm::dvec3& axis_local, int effector = 0,
                      double weight = 1.0) {

@@ -23,6 +23,15 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
       double s, c;
       so3::fast_sincos(0.5 * params[chain.dof_offset(i)], s, c);
       orientation = multiply_axis_angle(pre, chain.hinge_axis(i), Direction(chain.hinge_axis_direction(i)), c, s);
+    } else if (chain.joint_type(i) == JointType::kPrismatic) {
+      // The slide moves the joints after this one (o_i itself stays: only joints before effector
+      // k move it, chain.hpp).
+      orientation = pre;
+      ws.joint_origins[i] = origin;
+      ws.joint_pre_rotations[i] = to_glm(pre);
+      ws.joint_orientations[i] = to_glm(orientation);
+      origin += rotate(pre, chain.hinge_axis(i) * params[chain.dof_offset(i)]);
+      continue;
     } else {
       orientation = multiply(pre, from_glm(joint_motion(chain, i, params)));
     }
@@ -62,7 +71,7 @@ void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws) {
   for (int i = 0; i < n; ++i) {
     const int o = chain.dof_offset(i);
     const glm::dquat& pre = ws.joint_pre_rotations[i];
-    if (chain.joint_type(i) == JointType::kHinge) {
+    if (chain.joint_type(i) != JointType::kBall) {  // hinge: rotation axis, prismatic: slide direction
       ws.dof_axes[o] = pre * chain.hinge_axis(i);
     } else {
       const glm::dmat3 jl = so3::left_jacobian(glm::dvec3(params[o], params[o + 1], params[o + 2]));
@@ -163,7 +172,12 @@ void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspac
       const int cnt = chain.dof_count_of(j);
       for (int d = 0; d < cnt; ++d) {
         glm::dvec3 col(0.0);
-        if (j < k) {
+        if (j < k && chain.joint_type(j) == JointType::kPrismatic) {
+          // A slide along w moves the effector by w and turns nothing.
+          const glm::dvec3& w = ws.dof_axes[o];
+          if (g.kind == GoalKind::kPosition) col = w;
+          if (g.kind == GoalKind::kAimAt && aim_at_defined) col = glm::cross(direction, w) / distance;
+        } else if (j < k) {
           const glm::dvec3& w = ws.dof_axes[o + d];
           switch (g.kind) {
             case GoalKind::kPosition: col = glm::cross(w, point - ws.joint_origins[j]); break;
@@ -202,6 +216,8 @@ void apply_step(const Chain& chain, const double* step, double max_step_angle, d
       double d = step[o];
       if (max_step_angle > 0.0) d = std::clamp(d, -max_step_angle, max_step_angle);
       params[o] += d;
+    } else if (chain.joint_type(i) == JointType::kPrismatic) {
+      params[o] += step[o];  // metres: no angle to cap
     } else {
       glm::dvec3 d(step[o], step[o + 1], step[o + 2]);
       const double len = glm::length(d);
@@ -247,7 +263,7 @@ void project_joint_to_limits(const Chain& chain, int joint, double* params) {
   if (!chain.has_limits(joint)) return;
   const JointLimits& l = chain.limits(joint);
   const int o = chain.dof_offset(joint);
-  if (chain.joint_type(joint) == JointType::kHinge) {
+  if (chain.joint_type(joint) != JointType::kBall) {
     params[o] = std::clamp(params[o], l.hinge_min, l.hinge_max);
     return;
   }
@@ -271,7 +287,7 @@ bool within_limits(const Chain& chain, const double* params, double slack) {
     if (!chain.has_limits(i)) continue;
     const JointLimits& l = chain.limits(i);
     const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) == JointType::kHinge) {
+    if (chain.joint_type(i) != JointType::kBall) {
       if (params[o] < l.hinge_min - slack || params[o] > l.hinge_max + slack) return false;
       continue;
     }

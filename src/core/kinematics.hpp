@@ -17,6 +17,7 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
 // Local rotation R_i(params) of joint i (excluding its rest rotation). Inline: FK's inner loop.
 inline glm::dquat joint_motion(const Chain& chain, int joint, const double* params) {
   const double* p = params + chain.dof_offset(joint);
+  if (chain.joint_type(joint) == JointType::kPrismatic) return glm::dquat(1.0, 0.0, 0.0, 0.0);
   if (chain.joint_type(joint) == JointType::kHinge) {
     double s, c;
     so3::fast_sincos(0.5 * p[0], s, c);
@@ -35,6 +36,14 @@ glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int eff
 // the effector sits on the point (within 1e-12 of the chain's length). Valid after forward_kinematics().
 bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
                       double& distance);
+
+// Goal::pose with the chain's length as the characteristic length, times rotation_weight (1: a
+// radian of orientation error counts like one chain length of position error).
+inline std::array<Goal, 2> pose_goals(const Chain& chain, const glm::dvec3& position_in_base,
+                                      const glm::dquat& orientation_in_base, int effector = 0,
+                                      double rotation_weight = 1.0) {
+  return Goal::pose(position_in_base, orientation_in_base, rotation_weight * chain.total_length(), effector);
+}
 
 // World rotation axis of every DOF: ws.dof_axes. For a ball joint these are the columns of
 // pre_rotation * J_l(r), so that d(params) maps exactly to world angular velocity.
@@ -73,11 +82,11 @@ void apply_step(const Chain& chain, const double* step, double max_step_angle, d
 void project_to_limits(const Chain& chain, double* params);
 // The same for one joint (CCD and FABRIK apply limits joint by joint).
 void project_joint_to_limits(const Chain& chain, int joint, double* params);
-// True when joint `joint` is a limited hinge resting on a bound (within 1e-12 rad) and a change of
+// True when joint `joint` is a limited hinge (or prismatic joint) resting on a bound (within 1e-12 rad) and a change of
 // its angle by `direction` (its sign is what counts) would push it out: the active set of the
 // Jacobian solvers' limit-aware steps and of BFGS's projected steps.
 inline bool hinge_blocked(const Chain& chain, int joint, const double* params, double direction) {
-  if (chain.joint_type(joint) != JointType::kHinge) return false;
+  if (chain.joint_type(joint) == JointType::kBall) return false;
   const JointLimits& l = chain.limits(joint);
   if (!l.has_hinge_limit) return false;
   const double angle = params[chain.dof_offset(joint)];

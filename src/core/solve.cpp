@@ -46,6 +46,7 @@ double reach_of(const Chain& chain, int k) {
 // Smallest distance effector k can be from o_0 (triangle inequality): the longest bone before it
 // minus all the others, or 0.
 double inner_reach_of(const Chain& chain, int k) {
+  if (chain.first_prismatic() >= 0) return 0.0;  // bone lengths are upper bounds then
   double longest = 0.0;
   for (int i = 0; i < k; ++i) longest = std::max(longest, chain.bone_length(i));
   return std::max(0.0, 2.0 * longest - reach_of(chain, k));
@@ -174,16 +175,25 @@ bool apply_pole(const Chain& chain, Span<const Goal> goals, const SolverOptions&
   return false;
 }
 
+using SolveFn = SolverStatus (*)(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double*);
+
+// The solver table (solve.hpp) and the function of each row, in SolverKind order.
+const SolverInfo kSolverTable[] = {
+    {SolverKind::kTwoBone, "two_bone", "Two Bone", 2, false, false, false, false},
+    {SolverKind::kCCD, "ccd", "Cyclic Coordinate Descent", 0, true, true, true, false},
+    {SolverKind::kJacobianPinv, "jacobian_pinv", "Jacobian Pseudo-Inverse", 0, true, true, true, true},
+    {SolverKind::kDLS, "dls", "Damped Least Squares", 0, true, true, true, true},
+    {SolverKind::kBFGS, "bfgs", "BFGS", 0, true, true, true, true},
+    {SolverKind::kFABRIK, "fabrik", "FABRIK", 0, true, false, true, false},
+};
+const SolveFn kSolverFunctions[] = {solve_two_bone, solve_ccd, solve_jacobian_pinv, solve_dls, solve_bfgs, solve_fabrik};
+static_assert(sizeof(kSolverTable) / sizeof(kSolverTable[0]) == kSolverKindCount, "one table row per SolverKind");
+static_assert(sizeof(kSolverFunctions) / sizeof(kSolverFunctions[0]) == kSolverKindCount, "one function per row");
+
 SolverStatus run_solver(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         Workspace& ws, double* p) {
-  switch (kind) {
-    case SolverKind::kTwoBone: return solve_two_bone(chain, goals, options, ws, p);
-    case SolverKind::kCCD: return solve_ccd(chain, goals, options, ws, p);
-    case SolverKind::kJacobianPinv: return solve_jacobian_pinv(chain, goals, options, ws, p);
-    case SolverKind::kDLS: return solve_dls(chain, goals, options, ws, p);
-    case SolverKind::kBFGS: return solve_bfgs(chain, goals, options, ws, p);
-    case SolverKind::kFABRIK: return solve_fabrik(chain, goals, options, ws, p);
-  }
+  const int k = static_cast<int>(kind);
+  if (k >= 0 && k < kSolverKindCount) return kSolverFunctions[k](chain, goals, options, ws, p);
   SolverStatus status;
   status.reason = TerminationReason::kInvalidInput;
   status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
@@ -208,7 +218,7 @@ struct SplitMix64 {
 void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
   for (int i = 0; i < chain.joint_count(); ++i) {
     const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) == JointType::kHinge) {
+    if (chain.joint_type(i) != JointType::kBall) {  // prismatic joints always have a range
       const JointLimits& l = chain.limits(i);
       const double lo = l.has_hinge_limit ? l.hinge_min : -so3::kPi;
       const double hi = l.has_hinge_limit ? l.hinge_max : so3::kPi;
@@ -266,6 +276,10 @@ void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 }
 
 }  // namespace
+
+Span<const SolverInfo> solver_table() { return Span<const SolverInfo>(kSolverTable, kSolverKindCount); }
+
+const SolverInfo& solver_info(SolverKind kind) { return kSolverTable[static_cast<int>(kind)]; }
 
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         const Workspace& ws, const Eigen::Ref<const Eigen::VectorXd>& params) {
@@ -376,7 +390,8 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     return finish();
   }
   ws.params_backup = params;
-  ws.deadline.start(options.time_budget_usec, ws.deadline.now_us());
+  // The clock is read only for a budget (a 10-joint DLS solve takes ~2.5 us; a clock read ~25 ns).
+  ws.deadline.start(options.time_budget_usec, options.time_budget_usec > 0.0 ? ws.deadline.now_us() : 0.0);
   double* p = params.data();
 
   // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured

@@ -18,6 +18,22 @@ namespace ikchain {
 SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals,
                   const SolverOptions& options, Workspace& workspace, Eigen::Ref<Eigen::VectorXd> params);
 
+// The solver table: one row per SolverKind, in enum order - what the engine layer's enum, hint
+// strings and docs are generated from or checked against. solve() dispatches through the same
+// table (solve.cpp), so a solver cannot exist without its row.
+struct SolverInfo {
+  SolverKind kind;
+  const char* id;            // to_string(kind): "dls"
+  const char* display_name;  // "Damped Least Squares"
+  int joint_count;           // the only chain length it takes (two-bone: 2), or 0 for any
+  bool orientation_goals;    // pursues orientation, aim and aim-at goals (else position goals only)
+  bool intermediate_orientation_goals;  // ... on effectors other than the tip too (FABRIK: tip only)
+  bool several_goals;        // takes more than one goal
+  bool prismatic_joints;     // takes chains with prismatic joints
+};
+Span<const SolverInfo> solver_table();
+const SolverInfo& solver_info(SolverKind kind);  // kind must be one of the enum's values
+
 // The checks solve() makes before running a solver; empty message when all is well.
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         const Workspace& workspace, const Eigen::Ref<const Eigen::VectorXd>& params);

@@ -111,6 +111,42 @@ TEST(TipFrame, FullPoseRoundTripsWithRotatedTool) {
   }
 }
 
+// Goal::pose / pose_goals: the two goals of a 6-D pose, the orientation weighted by L^2 (a radian
+// counts like one chain length); a pose made by FK is met, position and tool frame.
+TEST(PoseGoal, WeightsAndRoundTrip) {
+  const glm::dquat tool = glm::angleAxis(0.9, glm::normalize(glm::dvec3(0.2, 1, 0.4)));
+  const Chain c = tool_chain(tool);
+  const double L = c.total_length();
+  const std::array<Goal, 2> explicit_length = Goal::pose(glm::dvec3(1, 2, 3), tool, 2.0, 3, 0.5);
+  EXPECT_EQ(explicit_length[0].kind, GoalKind::kPosition);
+  EXPECT_EQ(explicit_length[1].kind, GoalKind::kOrientation);
+  EXPECT_EQ(explicit_length[0].effector, 3);
+  EXPECT_DOUBLE_EQ(explicit_length[0].weight, 0.5);
+  EXPECT_DOUBLE_EQ(explicit_length[1].weight, 0.5 * 4.0);
+  EXPECT_DOUBLE_EQ(pose_goals(c, glm::dvec3(0), tool)[1].weight, L * L);
+  EXPECT_DOUBLE_EQ(pose_goals(c, glm::dvec3(0), tool, 0, 0.5)[1].weight, 0.25 * L * L);
+  const SolverOptions o = goal_options(c);
+  Workspace ws(c, 2);
+  std::mt19937 rng(31);
+  for (SolverKind kind : {SolverKind::kDLS, SolverKind::kBFGS, SolverKind::kJacobianPinv}) {
+    int ok = 0;
+    for (int t = 0; t < 40; ++t) {
+      const Eigen::VectorXd truth = test::random_params(c, rng, 1.2);
+      Workspace fk(c, 1);
+      forward_kinematics(c, truth.data(), fk);
+      const std::array<Goal, 2> goals = pose_goals(c, fk.tip, effector_orientation(c, fk, 0));
+      Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+      const SolveResult r = solve(kind, c, Span<const Goal>(goals.data(), 2), o, ws, p);
+      forward_kinematics(c, p.data(), fk);
+      if (r.reason == TerminationReason::kConverged &&
+          glm::length(fk.tip - goals[0].target_position) <= o.position_tolerance &&
+          angle_between(fk.joint_orientations[3] * tool, goals[1].target_orientation) <= o.orientation_tolerance)
+        ++ok;
+    }
+    EXPECT_EQ(ok, 40) << to_string(kind);
+  }
+}
+
 // An aim goal in the tool frame: the tool's +Z (a barrel along the rotated frame) takes a direction.
 TEST(TipFrame, AimAxisIsInTheToolFrame) {
   const glm::dquat tool = glm::angleAxis(0.7, glm::dvec3(0, 0, 1));

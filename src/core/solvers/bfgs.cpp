@@ -24,8 +24,7 @@
 //  - O(n^2) per iteration: one H g product and the rank-2 update, both in place on the lower
 //    triangle of ws.dof_square (H is symmetric; halving the memory traffic is what counts for long
 //    chains); no allocation.
-//  Measured (rest pose -> random reachable target, tolerance 1e-5 L, hinge chain n = 3/10/30/100):
-//  median 7 / 12 / 37 / 170 us, 16 / 11 / 10 / 10 iterations; 100% converged within 100 iterations.
+//  Timings and success rates: docs/benchmarks.md (scripts/bench), not here, where they go stale.
 //
 // Parameters. Trial points are params + alpha d with no wrapping (FK and the Jacobian accept any
 // rotation vector), so phi(alpha) is smooth. Ball rotation vectors are wrapped to angle <= pi only
@@ -152,7 +151,7 @@ class Bfgs {
     double m = 0.0;
     for (int i = 0; i < chain_.joint_count(); ++i) {
       const int o = chain_.dof_offset(i);
-      const double rot = chain_.joint_type(i) == JointType::kHinge
+      const double rot = chain_.joint_type(i) != JointType::kBall  // a slide counts metres as radians
                              ? std::abs(d[o])
                              : std::sqrt(d[o] * d[o] + d[o + 1] * d[o + 1] + d[o + 2] * d[o + 2]);
       m = std::max(m, rot);

@@ -75,6 +75,12 @@ double sweep(const Chain& chain, Span<const Goal> goals, const SolverOptions& op
 SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
                        double* params) {
   SolverStatus status;
+  if (chain.first_prismatic() >= 0) {
+    status.reason = TerminationReason::kInvalidInput;
+    status.message = Message::format("ccd turns joints only; joint %d is prismatic: use DLS, the pseudo-inverse or BFGS",
+                                     chain.first_prismatic());
+    return status;
+  }
   if (goals.size > kMaxGoals) {
     status.reason = TerminationReason::kInvalidInput;
     status.message = Message::format("ccd supports at most %d goals, got %d", kMaxGoals, goals.size);

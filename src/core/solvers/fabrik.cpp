@@ -113,6 +113,12 @@ void forward_reaching(const Chain& chain, Span<const Goal> goals, Workspace& ws)
 SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                           Workspace& ws, double* params) {
   SolverStatus status;
+  if (chain.first_prismatic() >= 0) {
+    status.reason = TerminationReason::kInvalidInput;
+    status.message = Message::format("fabrik turns joints only; joint %d is prismatic: use DLS, the pseudo-inverse or BFGS",
+                                     chain.first_prismatic());
+    return status;
+  }
   const int n = chain.joint_count();
   bool tip_frame_goals = false;
   for (int g = 0; g < goals.size; ++g) {

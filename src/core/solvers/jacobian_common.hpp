@@ -158,6 +158,12 @@ class SinglePositionModel {
         so3::fast_sincos(0.5 * params[o], s, c);
         q = multiply_axis_angle(pre, axis, dir, c, s);
         dof_axes[o] = rotate_coded(pre, axis, dir);
+      } else if (chain_.joint_type(i) == JointType::kPrismatic) {  // as forward_kinematics
+        q = pre;
+        dof_axes[o] = rotate(pre, chain_.hinge_axis(i));
+        joint_origins[i] = origin;
+        origin += dof_axes[o] * params[o];
+        continue;
       } else {
         const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
         q = multiply(pre, from_glm(so3::exp(r)));
@@ -231,12 +237,30 @@ class SinglePositionModel {
       a12 += c.y * c.z;
       a22 += c.z * c.z;
     };
+    // A slide moves the effector along its axis: column sqrt(w) * axis.
+    auto slide_column = [&](int dof) {
+      const glm::dvec3 c = axes[dof] * sqrt_weight_;
+      double* cj = col + stride * dof;
+      cj[0] = c.x;
+      cj[1] = c.y;
+      cj[2] = c.z;
+      a00 += c.x * c.x;
+      a01 += c.x * c.y;
+      a02 += c.x * c.z;
+      a11 += c.y * c.y;
+      a12 += c.y * c.z;
+      a22 += c.z * c.z;
+    };
     if (all_hinges_) {  // DOF i is joint i: no per-joint lookups
       for (int i = 0; i < effector_; ++i) column(i, (effector_position_ - origins[i]) * sqrt_weight_);
     } else {
       for (int i = 0; i < effector_; ++i) {
         const glm::dvec3 arm = (effector_position_ - origins[i]) * sqrt_weight_;
         const int o = chain_.dof_offset(i);
+        if (chain_.joint_type(i) == JointType::kPrismatic) {
+          slide_column(o);
+          continue;
+        }
         const int cnt = chain_.dof_count_of(i);
         for (int d = 0; d < cnt; ++d) column(o + d, arm);
       }

@@ -94,7 +94,9 @@ void null_space_centering(const Chain& chain, const SolverOptions& o, int m, int
   std::fill(z, z + chain.dof_count(), 0.0);
   for (int i = 0; i < chain.joint_count() && chain.dof_offset(i) < active; ++i) {
     const int d0 = chain.dof_offset(i);
-    if (chain.joint_type(i) == JointType::kHinge) {
+    if (chain.joint_type(i) == JointType::kPrismatic) {
+      z[d0] = -params[d0];
+    } else if (chain.joint_type(i) == JointType::kHinge) {
       z[d0] = -std::remainder(params[d0], 2.0 * so3::kPi);
     } else {
       for (int d = d0; d < d0 + 3; ++d) z[d] = -params[d];

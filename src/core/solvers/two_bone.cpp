@@ -81,6 +81,12 @@ glm::dquat frame_rotation(const glm::dvec3& x, const glm::dvec3& y, const glm::d
 SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                             Workspace& ws, double* params) {
   SolverStatus status;
+  if (chain.first_prismatic() >= 0) {
+    status.reason = TerminationReason::kInvalidInput;
+    status.message = Message::format("two_bone turns joints only; joint %d is prismatic: use DLS, the pseudo-inverse or BFGS",
+                                     chain.first_prismatic());
+    return status;
+  }
   if (chain.joint_count() != 2) {
     status.reason = TerminationReason::kInvalidInput;
     status.message = Message::format("two_bone needs a chain of exactly 2 joints, got %d", chain.joint_count());
