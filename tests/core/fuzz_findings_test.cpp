@@ -155,11 +155,10 @@ TEST(FuzzFindings, PseudoInverseNeverWorseThanStart) {
   start << 0.3, 2.8885714472476072, -1.4326639561548049;
   const double start_cost = cost_of(chain, goals, start);
 
-  // The reproducer: the solver alone ends worse than it started.
+  // The fuzzer's reproducer: the pseudo-inverse alone ended worse than it started (before the
+  // limit-aware step it did; whether it still does is the solver's business). The guarantee is
+  // solve()'s: never worse than the start, whatever the solver returns.
   Workspace ws(chain, 1);
-  Eigen::VectorXd raw = start;
-  solve_jacobian_pinv(chain, goals, SolverOptions(), ws, raw.data());
-  ASSERT_GT(cost_of(chain, goals, raw), start_cost) << "no longer reproduces the solver's own behaviour";
 
   // Through solve(): never worse, and the reported errors are the returned pose's.
   Eigen::VectorXd p = start;

@@ -104,6 +104,13 @@ Pose reference_fk(const std::vector<JointDesc>& joints, const glm::dvec3& tip_of
     if (j.type == JointType::kHinge) {
       q = q * glm::angleAxis(params[o], unit(j.hinge_axis));
       o += 1;
+    } else if (j.type == JointType::kPrismatic) {
+      // The slide moves what comes after the joint, along its axis in the joint's frame.
+      pose.origins.push_back(origin);
+      pose.orientations.push_back(q);
+      origin += q * (unit(j.hinge_axis) * params[o]);
+      o += 1;
+      continue;
     } else {
       const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
       const double angle = glm::length(r);
@@ -195,8 +202,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<JointDesc> joints(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
     JointDesc& j = joints[i];
-    const int type = d.ConsumeIntegralInRange<int>(0, 8);
-    j.type = type < 4 ? JointType::kBall : type < 8 ? JointType::kHinge : static_cast<JointType>(7);
+    const int type = d.ConsumeIntegralInRange<int>(0, 9);
+    j.type = type < 4   ? JointType::kBall
+             : type < 7 ? JointType::kHinge
+             : type < 9 ? JointType::kPrismatic
+                        : static_cast<JointType>(7);
     if (i > 0 || d.ConsumeBool()) j.offset_translation = pick_vec(d, 2.0);
     if (d.ConsumeBool()) {
       j.rest_rotation = glm::dquat(pick_mostly(d, 2.0), pick_mostly(d, 2.0), pick_mostly(d, 2.0), pick_mostly(d, 2.0));
