@@ -7,7 +7,14 @@ extends SceneTree
 const LINK := 0.5
 
 
-func _initialize() -> void:
+var _done := false
+
+
+# The scene tree takes nodes only once the main loop runs: check on the first frame.
+func _process(_delta: float) -> bool:
+	if _done:
+		return true
+	_done = true
 	var why := _check()
 	if why.is_empty():
 		print("PACKAGE_CHECK_OK")
@@ -15,6 +22,7 @@ func _initialize() -> void:
 	else:
 		print("PACKAGE_CHECK_FAIL: " + why)
 		quit(1)
+	return true
 
 
 func _check() -> String:
@@ -48,5 +56,5 @@ func _check() -> String:
 		return "the solve did not reach the target: %s" % r
 	if miss > 1e-3:
 		return "the hand is %.6f from the target (result says %s)" % [miss, r]
-	print("solver %s, %d iterations, tip within %.2e of the target" % [r.get("solver"), r.get("iterations"), miss])
+	print("solver %s, %d iterations, tip within %s of the target" % [r.get("solver"), r.get("iterations"), String.num_scientific(miss)])
 	return ""
