@@ -231,6 +231,6 @@ func _finish() -> void:
 		why = "mean orientation error %.3f° > 0.5°" % orientation_deg
 	print("arm_reach summary: %d frames, mean error %.4f mm, %.4f°, reached %.0f %%, %.1f iterations, %.1f µs per solve" % [
 			frames, position_mm, orientation_deg, 100.0 * _run.mean("reached"), _run.mean("iterations"), _run.mean("micros")])
-	print("demo: PASS arm_reach (the hand tracked the target: mean %.3f mm, %.3f°)" % [position_mm, orientation_deg] if why == ""
+	print("demo: PASS arm_reach: the hand tracked the target within %.3f mm, %.3f° (mean)" % [position_mm, orientation_deg] if why == ""
 			else "demo: FAIL arm_reach: %s" % why)
 	get_tree().quit(0 if why == "" else 1)

@@ -114,10 +114,10 @@ func muzzle() -> Transform3D:
 ## A new flight: a loop around a point ahead of the launcher, at a random radius, height, speed,
 ## direction and weave, all from the seeded generator.
 func _spawn_drone() -> void:
-	var radius := rng.randf_range(28.0, 45.0)
-	var speed := rng.randf_range(18.0, 28.0)
+	var radius := rng.randf_range(22.0, 32.0)
+	var speed := rng.randf_range(16.0, 24.0)
 	_path = {
-		"center": Vector3(rng.randf_range(-15.0, 15.0), rng.randf_range(20.0, 34.0), rng.randf_range(-75.0, -60.0)),
+		"center": Vector3(rng.randf_range(-12.0, 8.0), rng.randf_range(16.0, 26.0), rng.randf_range(-50.0, -42.0)),
 		"radius": radius,
 		"omega": speed / radius * (1.0 if rng.randf() < 0.5 else -1.0),
 		"phase": rng.randf_range(0.0, TAU),
@@ -164,8 +164,9 @@ func _process(delta: float) -> void:
 	step(dt)
 	_draw_lines()
 	stats_label.text = _status_text()
+	# The screenshot waits for a missile well on its way (or gives up waiting after 5 s).
 	if options["screenshot"] != "" and not _shot_taken and time >= options["screenshot_at"] \
-			and (not missiles.is_empty() or time >= options["screenshot_at"] + 5.0):
+			and ((not missiles.is_empty() and missiles[0]["age"] >= 0.5) or time >= options["screenshot_at"] + 5.0):
 		_shot_taken = true
 		var err: int = await Cli.save_screenshot(get_viewport(), options["screenshot"])
 		get_tree().quit(0 if err == OK else 1)
@@ -338,8 +339,8 @@ func _finish() -> void:
 		why = "no hits in %d shots" % shots
 	print("missile_guidance summary: %.0f s, shots %d, hits %d, misses %d, aim error mean %.4f°, max %.4f°" % [
 			time, shots, hits, misses, mean_deg, rad_to_deg(max_aim_error())])
-	print("demo: PASS missile_guidance (%d hits of %d shots, mean aim error %.3f°)" % [hits, shots, mean_deg] if why == ""
-			else "demo: FAIL missile_guidance: %s" % why)
+	print("demo: PASS missile_guidance: %d hits of %d missiles (%d in flight at the end), mean aim error %.4f°" % [
+			hits, hits + misses, missiles.size(), mean_deg] if why == "" else "demo: FAIL missile_guidance: %s" % why)
 	get_tree().quit(0 if why == "" else 1)
 
 
@@ -350,8 +351,8 @@ func _build_visuals() -> void:
 	body.albedo_color = Color(0.85, 0.86, 0.9)
 	body.metallic = 0.5
 	var capsule := CapsuleMesh.new()
-	capsule.radius = 0.14
-	capsule.height = 1.1
+	capsule.radius = 0.2
+	capsule.height = 1.6
 	capsule.material = body
 	_missile_mesh = capsule
 	var fire := StandardMaterial3D.new()
@@ -368,8 +369,8 @@ func _build_visuals() -> void:
 	add_child(drone)
 	var paint := StandardMaterial3D.new()
 	paint.albedo_color = Color(0.75, 0.2, 0.15)
-	for part in [[Vector3(0.35, 0.3, 1.8), Vector3.ZERO], [Vector3(3.0, 0.06, 0.55), Vector3(0, 0, -0.1)],
-			[Vector3(1.1, 0.05, 0.35), Vector3(0, 0, 0.75)], [Vector3(0.05, 0.45, 0.35), Vector3(0, 0.2, 0.75)]]:
+	for part in [[Vector3(0.5, 0.45, 2.6), Vector3.ZERO], [Vector3(4.4, 0.08, 0.8), Vector3(0, 0, -0.15)],
+			[Vector3(1.6, 0.07, 0.5), Vector3(0, 0, 1.1)], [Vector3(0.07, 0.65, 0.5), Vector3(0, 0.3, 1.1)]]:
 		var mesh := BoxMesh.new()
 		mesh.size = part[0]
 		mesh.material = paint
