@@ -66,6 +66,7 @@ var _muzzle := Transform3D()
 var _lines: ImmediateMesh
 var _last_frame := -1
 var _second := Cli.Stats.new()
+var _run := Cli.Stats.new()
 var _next_report := 1.0
 var _finished := false
 var _shot_taken := false
@@ -289,6 +290,9 @@ func _on_skeleton_updated() -> void:
 		aim_errors.append(aim_error)
 		_second.add("aim", aim_error)
 	_second.add("micros", float(r.get("microseconds", 0.0)))
+	if drone_alive:
+		_run.add("micros", float(r.get("microseconds", 0.0)))
+		_run.add("iterations", float(r.get("iterations", 0)))
 	if options["demo_seconds"] > 0.0 and time >= _next_report:
 		_next_report += 1.0
 		print("missile_guidance t=%2.0f s: solver %s | mean aim error %.4f° | shots %d, hits %d | %.1f µs per solve" % [
@@ -337,8 +341,8 @@ func _finish() -> void:
 		why = "mean aim error %.3f° > 0.5°" % mean_deg
 	elif hits == 0:
 		why = "no hits in %d shots" % shots
-	print("missile_guidance summary: %.0f s, shots %d, hits %d, misses %d, aim error mean %.4f°, max %.4f°" % [
-			time, shots, hits, misses, mean_deg, rad_to_deg(max_aim_error())])
+	print("missile_guidance summary: %.0f s, shots %d, hits %d, misses %d, aim error mean %.4f°, max %.4f°, %.1f iterations, %.1f µs per solve" % [
+			time, shots, hits, misses, mean_deg, rad_to_deg(max_aim_error()), _run.mean("iterations"), _run.mean("micros")])
 	print("demo: PASS missile_guidance: %d hits of %d missiles (%d in flight at the end), mean aim error %.4f°" % [
 			hits, hits + misses, missiles.size(), mean_deg] if why == "" else "demo: FAIL missile_guidance: %s" % why)
 	get_tree().quit(0 if why == "" else 1)
