@@ -103,7 +103,7 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_extend_tip_bone", &IKChain::set_extend_tip_bone, {"enabled"});
   b.method("is_extend_tip_bone", &IKChain::is_extend_tip_bone);
   b.method("set_tip_extension_axis", &IKChain::set_tip_extension_axis, {"axis"});
-  b.method("get_tip_extension_axis", &IKChain::get_tip_extension_axis);
+  b.method("get_tip_extension_axis", &IKChain::get_tip_extension_axis, {}, {"IKChain.Axis"});
   b.method("set_tip_extension_length", &IKChain::set_tip_extension_length, {"length"});
   b.method("get_tip_extension_length", &IKChain::get_tip_extension_length);
   b.method("set_target", &IKChain::set_target, {"path"});
@@ -113,9 +113,9 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_target_transform", &IKChain::set_target_transform, {"transform"});
   b.method("get_target_transform", &IKChain::get_target_transform);
   b.method("set_solver", &IKChain::set_solver, {"solver"});
-  b.method("get_solver", &IKChain::get_solver);
+  b.method("get_solver", &IKChain::get_solver, {}, {"IKChain.Solver"});
   b.method("set_goal_mode", &IKChain::set_goal_mode, {"mode"});
-  b.method("get_goal_mode", &IKChain::get_goal_mode);
+  b.method("get_goal_mode", &IKChain::get_goal_mode, {}, {"IKChain.GoalMode"});
   b.method("set_aim_axis", &IKChain::set_aim_axis, {"axis"});
   b.method("get_aim_axis", &IKChain::get_aim_axis);
   b.method("set_use_target_rotation", &IKChain::set_use_target_rotation, {"enabled"});
@@ -125,9 +125,9 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_pole_target", &IKChain::set_pole_target, {"path"});
   b.method("get_pole_target", &IKChain::get_pole_target);
   b.method("set_joints", &IKChain::set_joints, {"joints"});
-  b.method("get_joints", &IKChain::get_joints);
+  b.method("get_joints", &IKChain::get_joints, {}, {nullptr, "IKChainJoint"});
   b.method("set_goals", &IKChain::set_goals, {"goals"});
-  b.method("get_goals", &IKChain::get_goals);
+  b.method("get_goals", &IKChain::get_goals, {}, {nullptr, "IKChainGoal"});
   b.method("set_max_iterations", &IKChain::set_max_iterations, {"iterations"});
   b.method("get_max_iterations", &IKChain::get_max_iterations);
   b.method("set_tolerance", &IKChain::set_tolerance, {"tolerance"});
@@ -712,6 +712,7 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
       goal_buffer_.assign(size_t(max_goals), Goal());
       params_ = Eigen::VectorXd::Zero(mapping_.chain().dof_count());
       params_from_last_solve_ = false;
+      have_good_pose_ = false;
       bone_poses_.assign(size_t(bones), BonePose());
       old_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
       new_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
@@ -860,7 +861,12 @@ bool IKChain::run(const gdx::Skeleton3D& skel) {
     set_invalid_result(update.error.c_str());
     return false;
   }
-  if (!assemble_goals(skel)) return false;
+  if (!assemble_goals(skel)) {
+    if (have_good_pose_)
+      for (int i = 0; i < n; ++i)
+        skel.set_bone_pose_rotation(mapping_.skeleton_bone(i), gdx::from_glm(new_rotations_[size_t(i)]));
+    return false;
+  }
 
   if (deterministic_) {
     params_.setZero();
@@ -879,12 +885,14 @@ bool IKChain::run(const gdx::Skeleton3D& skel) {
   }
   if (!mapping_.rotations_from_params(params_.data(), new_rotations_)) {
     params_from_last_solve_ = false;
+    have_good_pose_ = false;
     report_runtime(kNonFinite);
     set_invalid_result(kNonFinite);
     return false;
   }
   for (int i = 0; i < n; ++i)
     skel.set_bone_pose_rotation(mapping_.skeleton_bone(i), gdx::from_glm(new_rotations_[size_t(i)]));
+  have_good_pose_ = true;
 
   // The error of the pose the skeleton ends with: the skeleton blends our rotations with the
   // previous ones by `influence`, and a non-uniform scale makes the rigid chain approximate.

@@ -20,7 +20,7 @@ void IKChainGoal::register_class(gdx::ClassRecord& record) {
   b.method("set_bone_name", &IKChainGoal::set_bone_name, {"bone_name"});
   b.method("get_bone_name", &IKChainGoal::get_bone_name);
   b.method("set_kind", &IKChainGoal::set_kind, {"kind"});
-  b.method("get_kind", &IKChainGoal::get_kind);
+  b.method("get_kind", &IKChainGoal::get_kind, {}, {"IKChainGoal.Kind"});
   b.method("set_target", &IKChainGoal::set_target, {"path"});
   b.method("get_target", &IKChainGoal::get_target);
   b.method("set_weight", &IKChainGoal::set_weight, {"weight"});

@@ -37,7 +37,7 @@ void IKChainJoint::register_class(gdx::ClassRecord& record) {
   b.method("set_bone_name", &IKChainJoint::set_bone_name, {"bone_name"});
   b.method("get_bone_name", &IKChainJoint::get_bone_name);
   b.method("set_type", &IKChainJoint::set_type, {"type"});
-  b.method("get_type", &IKChainJoint::get_type);
+  b.method("get_type", &IKChainJoint::get_type, {}, {"IKChainJoint.JointType"});
   b.method("set_hinge_axis", &IKChainJoint::set_hinge_axis, {"axis"});
   b.method("get_hinge_axis", &IKChainJoint::get_hinge_axis);
   b.method("set_hinge_limit_enabled", &IKChainJoint::set_hinge_limit_enabled, {"enabled"});
@@ -59,8 +59,8 @@ void IKChainJoint::register_class(gdx::ClassRecord& record) {
   b.method("set_twist_axis", &IKChainJoint::set_twist_axis, {"axis"});
   b.method("get_twist_axis", &IKChainJoint::get_twist_axis);
 
-  b.constant("Type", "JOINT_BALL", JOINT_BALL);
-  b.constant("Type", "JOINT_HINGE", JOINT_HINGE);
+  b.constant("JointType", "JOINT_BALL", JOINT_BALL);
+  b.constant("JointType", "JOINT_HINGE", JOINT_HINGE);
 
   b.property({"bone_name", GDEXTENSION_VARIANT_TYPE_STRING}, "set_bone_name", "get_bone_name");
   b.property({"type", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_ENUM, "Ball,Hinge"}, "set_type", "get_type");

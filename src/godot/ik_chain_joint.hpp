@@ -13,7 +13,7 @@ namespace ikchain::godot {
 
 class IKChainJoint {
  public:
-  enum Type : int64_t { JOINT_BALL = 0, JOINT_HINGE = 1 };
+  enum Type : int64_t { JOINT_BALL = 0, JOINT_HINGE = 1 };  // registered as enum JointType
 
   static void register_class(gdx::ClassRecord& record);
   // The C++ instance behind a Variant of an Array (null when it is not an IKChainJoint).

@@ -75,6 +75,13 @@ struct ArgTraits<Vector3> : BuiltinArgTraits<Vector3, GDEXTENSION_VARIANT_TYPE_V
 template <>
 struct ArgTraits<Transform3D> : BuiltinArgTraits<Transform3D, GDEXTENSION_VARIANT_TYPE_TRANSFORM3D> {};
 
+// What a bound method returns, beyond its C++ type: an enum (`return_class` = "Class.Enum",
+// shown as such in the class reference) or a typed array (`return_array_of` = "IKChainJoint").
+struct ReturnInfo {
+  const char* return_enum = nullptr;
+  const char* return_array_of = nullptr;
+};
+
 // ---- property description ----
 struct PropertySpec {
   const char* name;
@@ -280,18 +287,20 @@ class ClassBuilder {
   // Binds the member function `fn` as `name`, with named arguments (like godot-cpp's
   // ClassDB::bind_method(D_METHOD("set_x", "x"), &C::set_x)); types are deduced from `fn`.
   template <class R, class... A>
-  void method(const char* name, R (C::*fn)(A...), std::initializer_list<const char*> arg_names = {}) {
-    add_method<R, A...>(name, std::make_unique<detail::MethodRecord<C, R, A...>>(fn), arg_names, false);
+  void method(const char* name, R (C::*fn)(A...), std::initializer_list<const char*> arg_names = {},
+              ReturnInfo ret = {}) {
+    add_method<R, A...>(name, std::make_unique<detail::MethodRecord<C, R, A...>>(fn), arg_names, false, ret);
   }
   template <class R, class... A>
-  void method(const char* name, R (C::*fn)(A...) const, std::initializer_list<const char*> arg_names = {}) {
-    add_method<R, A...>(name, std::make_unique<detail::MethodRecord<C, R, A...>>(fn), arg_names, true);
+  void method(const char* name, R (C::*fn)(A...) const, std::initializer_list<const char*> arg_names = {},
+              ReturnInfo ret = {}) {
+    add_method<R, A...>(name, std::make_unique<detail::MethodRecord<C, R, A...>>(fn), arg_names, true, ret);
   }
 
  private:
   template <class R, class... A>
   void add_method(const char* name, std::unique_ptr<detail::MethodRecord<C, R, A...>> record,
-                  std::initializer_list<const char*> arg_names, bool is_const) {
+                  std::initializer_list<const char*> arg_names, bool is_const, ReturnInfo ret) {
     static_assert(sizeof...(A) < 8, "too many arguments");
     StringName method_name(name);
     record->class_name = String(record_.name).utf8();
@@ -312,8 +321,15 @@ class ClassBuilder {
       args_meta[i] = ArgTraits<detail::bare_t<A>>::kMeta, ++i),
      ...);
     StringName ret_name;
+    StringName ret_class(ret.return_enum ? ret.return_enum : "");
     GDExtensionPropertyInfo ret_info{};
-    init_return_info(ret_info, ret_name, empty_class, hints.back());
+    init_return_info(ret_info, ret_name, ret.return_enum ? ret_class : empty_class, hints.back());
+    if (ret.return_enum) ret_info.usage |= uint32_t(gen::PropertyUsageFlags::PROPERTY_USAGE_CLASS_IS_ENUM);
+    if (ret.return_array_of) {
+      hints.back() = String(ret.return_array_of);
+      ret_info.hint = uint32_t(gen::PropertyHint::PROPERTY_HINT_ARRAY_TYPE);
+      ret_info.hint_string = hints.back().ptr();
+    }
 
     GDExtensionClassMethodInfo mi{};
     mi.name = method_name.ptr();
