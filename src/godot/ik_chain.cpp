@@ -62,8 +62,10 @@ Names* g_names = nullptr;
 
 // Per-frame runtime problems: constant text, so reporting them allocates nothing.
 constexpr const char* kBadTarget =
-    "IKChain: the target's transform is not finite (or the skeleton's is degenerate); this frame was skipped and "
-    "the last pose kept.";
+    "IKChain: the target's transform is not finite; this frame was skipped and the last pose kept.";
+constexpr const char* kBadBase =
+    "IKChain: the skeleton's global transform (or the base bone's pose) is not invertible: a zero scale? This frame "
+    "was skipped and the last pose kept.";
 constexpr const char* kNonFinite = "IKChain: the solver produced a non-finite rotation; the pose was left unchanged.";
 
 const char* reason_name(TerminationReason r) {
@@ -783,9 +785,12 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
   const glm::dmat4 base_bone =
       base_bone_ >= 0 ? gdx::to_glm(skel.get_bone_global_pose(base_bone_)) : glm::dmat4(1.0);
   BaseFrame base;
-  if (!finite(target_global) || !BaseFrame::make(gdx::to_glm(skel.get_global_transform()), base_bone, base)) {
-    report_runtime(kBadTarget);
-    set_invalid_result(kBadTarget);
+  const char* bad = !finite(target_global) ? kBadTarget
+                    : !BaseFrame::make(gdx::to_glm(skel.get_global_transform()), base_bone, base) ? kBadBase
+                                                                                                  : nullptr;
+  if (bad != nullptr) {
+    report_runtime(bad);
+    set_invalid_result(bad);
     return false;
   }
   const glm::dmat4 target_m = gdx::to_glm(target_global);
