@@ -377,17 +377,22 @@ static func quantile(values: Array, q: float) -> float:
 
 # ------------------------------------------------------------------ wall time
 
+## Active and inactive blocks alternate (load on a shared machine drifts): `blocks` pairs of
+## `block_frames` frames each, 2 unmeasured frames after every switch; the figure is the median over
+## the pairs of (median active frame - median inactive frame) for the wall-clock frame period, and
+## of (mean active frame - mean inactive frame) for the main thread's CPU time
+## (/proc/thread-self/schedstat: time on a CPU, so time spent waiting for one on a loaded machine
+## is left out; the modifiers run on this thread) and for the wall-clock frame period.
 func _walltime() -> Dictionary:
 	var n := 10
 	var chains := 200 if _args.has("quick") else 1000
-	var frames := 20 if _args.has("quick") else 60
+	var blocks := 3 if _args.has("quick") else 8
+	var block_frames := 5 if _args.has("quick") else 8
 	var seqs := sequences(n, chains, TRACK_FRAMES, 9000 + n)
 	var records := []
 	var wanted := [
 		{"system": "IKChain", "solver": "DLS", "settings": "default", "id": 3},
-		{"system": "IKChain", "solver": "FABRIK", "settings": "default", "id": 5},
 		{"system": "Godot", "solver": "FABRIK3D", "settings": "converge"},
-		{"system": "Godot", "solver": "FABRIK3D", "settings": "default"},
 	]
 	wanted.append_array(floor_configs())
 	for c in wanted:
@@ -396,34 +401,78 @@ func _walltime() -> Dictionary:
 		var k := 0
 		var active := []
 		var inactive := []
-		for phase in ["active", "inactive"]:
-			if phase == "inactive":
+		var diffs := []
+		var cpu_active := []
+		var cpu_inactive := []
+		var cpu_diffs := []
+		for w in 3:  # warm-up: chain builds, first solves, caches
+			k += 1
+			move_targets(seqs, k)
+			await process_frame
+		for blk in blocks:
+			var med := {}
+			var cpu_med := {}
+			for on in [true, false]:
 				for r in _rigs:
-					r["mod"].active = false
-			for w in 3:  # warm-up: chain builds, first solves, caches
-				k += 1
-				move_targets(seqs, k)
-				await process_frame
-			var last := Time.get_ticks_usec()
-			for f in frames:
-				k += 1
-				move_targets(seqs, k)
-				await process_frame
-				var now := Time.get_ticks_usec()
-				(active if phase == "active" else inactive).append(float(now - last))
-				last = now
+					r["mod"].active = on
+				for w in 2:
+					k += 1
+					move_targets(seqs, k)
+					await process_frame
+				var times := []
+				var cpu := []
+				var last := Time.get_ticks_usec()
+				var last_cpu := _cpu_usec()
+				var block_cpu_start := last_cpu
+				for f in block_frames:
+					k += 1
+					move_targets(seqs, k)
+					await process_frame
+					var now := Time.get_ticks_usec()
+					var now_cpu := _cpu_usec()
+					times.append(float(now - last))
+					cpu.append(now_cpu - last_cpu)
+					last = now
+					last_cpu = now_cpu
+				(active if on else inactive).append_array(times)
+				(cpu_active if on else cpu_inactive).append_array(cpu)
+				med[on] = quantile(times, 0.5)
+				# The kernel updates a thread's CPU time at scheduler ticks (ms): per-frame values
+				# are coarse, a block's mean is not.
+				cpu_med[on] = (_cpu_usec() - block_cpu_start) / block_frames
+			diffs.append(med[true] - med[false])
+			cpu_diffs.append(cpu_med[true] - cpu_med[false])
 		scene.queue_free()
 		await process_frame
 		var rec: Dictionary = c.duplicate()
 		rec.erase("id")
-		rec.merge({"joints": n, "chains": chains, "frames": frames,
+		rec.merge({"joints": n, "chains": chains, "frames_each": blocks * block_frames,
 				"median_frame_us_active": quantile(active, 0.5),
-				"median_frame_us_inactive": quantile(inactive, 0.5)})
-		rec["frame_ms_for_chains"] = (rec["median_frame_us_active"] - rec["median_frame_us_inactive"]) / 1000.0
-		print("[GBENCH] walltime %s: %d chains, median frame %.2f ms active, %.2f ms inactive" % [
-			config_name(c), chains, rec["median_frame_us_active"] / 1000.0, rec["median_frame_us_inactive"] / 1000.0])
+				"median_frame_us_inactive": quantile(inactive, 0.5),
+				"wall_ms_for_chains": quantile(diffs, 0.5) / 1000.0,
+				"mean_cpu_us_active": _mean(cpu_active),
+				"mean_cpu_us_inactive": _mean(cpu_inactive),
+				"cpu_ms_for_chains": quantile(cpu_diffs, 0.5) / 1000.0,
+				"block_cpu_differences_ms": cpu_diffs.map(func(d): return d / 1000.0)})
+		print("[GBENCH] walltime %s: %d chains, %.2f ms CPU / %.2f ms wall per frame" % [
+			config_name(c), chains, rec["cpu_ms_for_chains"], rec["wall_ms_for_chains"]])
 		records.append(rec)
 	return {"records": records}
+
+
+static func _mean(values: Array) -> float:
+	var total := 0.0
+	for v in values:
+		total += v
+	return total / max(1, values.size())
+
+
+## CPU time of the calling thread so far, in microseconds (Linux).
+static func _cpu_usec() -> float:
+	var f := FileAccess.open("/proc/thread-self/schedstat", FileAccess.READ)
+	if f == null:
+		return NAN
+	return float(f.get_line().get_slice(" ", 0)) / 1000.0
 
 
 # ------------------------------------------------------------------ instruction counts
@@ -447,6 +496,7 @@ func _cost() -> Dictionary:
 	var chains := int(_args.get("chains", "20"))
 	var frames := int(_args.get("frames", "10"))
 	var lengths: Array = Array(str(_args.get("joints", "10")).split(",")).map(func(s): return int(s))
+	var systems: PackedStringArray = str(_args.get("systems", "IKChain,Godot,floor")).split(",")
 	_dir = DirAccess.open(_args["marker_dir"])
 	print("[GBENCH] READY")
 	while not FileAccess.file_exists(_args["ack"]):
@@ -458,6 +508,8 @@ func _cost() -> Dictionary:
 		var list := configs(n)
 		list.append_array(floor_configs())
 		for c in list:
+			if not systems.has(c["system"]):
+				continue
 			var scene := build_rigs(c, n, seqs, chains)
 			root_node().add_child(scene)
 			var k := 0
