@@ -358,6 +358,36 @@ def table(doc):
     return "\n".join(lines)
 
 
+def table_md(doc):
+    """The README-ready table: one row per system, success at every n, the rest at n = 10."""
+    recs = doc["records"]
+    ns = sorted({r["joints"] for r in recs})
+    keys = []
+    for r in sorted(recs, key=lambda r: (r["system"] != "IKChain", r["solver"], r["settings"])):
+        k = (r["system"], r["solver"], r["settings"])
+        if k not in keys:
+            keys.append(k)
+    by = {(r["system"], r["solver"], r["settings"], r["joints"]): r for r in recs}
+    cost_ns = sorted({c["joints"] for c in doc["cost"]})
+    head = ["system", "solver", "settings"] + [f"first-frame success, n = {n}" for n in ns] + [
+        "median error after the first frame, n = 10", "tracking error (median), n = 10"] + [
+        f"instructions per solve, n = {n}" for n in cost_ns]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for k in keys:
+        cells = [k[0], f"`{k[1]}`", k[2]]
+        for n in ns:
+            r = by.get(k + (n,))
+            cells.append("" if r is None else f"{pct(r['success_rate_first_frame'])} %")
+        r = by.get(k + (10,))
+        cells += ["" if r is None else sci(r["median_error_first_frame"]),
+                  "" if r is None else sci(r["tracking_error_120_frames"])]
+        for n in cost_ns:
+            r = by.get(k + (n,))
+            cells.append("" if r is None or r["cost_per_solve"] is None else kilo(r["cost_per_solve"]))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 METHOD = {
     "chains": "n unit bones along +Y (bone b0 at the skeleton origin, b1..b<n-1>, then 'tip' as the effector); "
               "joints b0..b<n-1> are free ball joints; chain length L = n; identity skeleton transform",
@@ -444,8 +474,9 @@ def main():
                      "load_end": " ".join(open("/proc/loadavg").read().split()[:3]),
                      "first_frame_chains": accuracy["first_frame_chains"],
                      "tracking_chains": accuracy["tracking_chains"], "quick": args.quick,
-                     "library": "accuracy and callgrind: template_debug (-O2 -g, assertions on: the library the "
-                                "editor binary loads; callgrind needs its symbols); wall time: template_release"},
+                     "library": "accuracy runs and the solve()/node split: template_debug (-O2 -g, assertions on: "
+                                "the library the editor binary loads; its symbols give the split); cost_per_solve "
+                                "and time per frame: template_release (-O3 -DNDEBUG, what an exported game loads)"},
             "method": METHOD,
             "records": merge(accuracy, walltime, costs),
             "cost": costs,
@@ -456,7 +487,12 @@ def main():
         with open(os.path.join(args.out, "godot.json"), "w") as f:
             json.dump(doc, f, indent=1)
         print(table(doc))
-        log(f"wrote {os.path.join(args.out, 'godot.json')}")
+        md = table_md(doc)
+        with open(os.path.join(args.out, "godot.md"), "w") as f:
+            f.write(md + "\n")
+        print()
+        print(md)
+        log(f"wrote {os.path.join(args.out, 'godot.json')} and godot.md")
     finally:
         if args.keep:
             log(f"kept {work}")
