@@ -167,11 +167,13 @@ def run_cost(proj, work, quick, name, joints, systems):
 
 
 def annotate(dump):
-    """Inclusive instruction counts per function (callgrind_annotate --inclusive=yes)."""
-    txt = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", dump],
-                         capture_output=True, text=True, check=True).stdout
+    """Inclusive instruction counts per function, and per source line of our files
+    (callgrind_annotate --inclusive=yes --auto=yes, run from the repository root where the
+    library's debug info finds the sources)."""
+    txt = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--auto=yes", "--threshold=100", dump],
+                         capture_output=True, text=True, check=True, cwd=ROOT).stdout
     rows = []
-    for line in txt.splitlines():
+    for line in txt.split("-- Auto-annotated source", 1)[0].splitlines():
         m = re.match(r"\s*([\d,]+)\s+(?:\([^)]*\)\s+)?(.*)$", line)
         if m and ":" in m.group(2):
             rows.append((int(m.group(1).replace(",", "")), m.group(2)))
@@ -303,6 +305,17 @@ def verdicts(doc):
     return out
 
 
+def rounded(x):
+    """Floats to 4 significant digits, for printing."""
+    if isinstance(x, float):
+        return float(f"{x:.4g}")
+    if isinstance(x, dict):
+        return {k: rounded(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [rounded(v) for v in x]
+    return x
+
+
 def table(doc):
     lines = []
     m = doc["meta"]
@@ -354,7 +367,7 @@ def table(doc):
     for v in doc["verdicts"]:
         lines.append(f"  [{'met' if v['met'] else 'NOT met'}] {v['target']}")
         extra = {k: v[k] for k in v if k not in ("target", "met")}
-        lines.append("      " + json.dumps(extra, default=lambda x: x))
+        lines.append("      " + json.dumps(rounded(extra)))
     return "\n".join(lines)
 
 
