@@ -18,9 +18,21 @@ ChainBuilder& ChainBuilder::set_tip_offset(const glm::dvec3& tip_offset) {
   return *this;
 }
 
+ChainBuilder& ChainBuilder::set_tip_rotation(const glm::dquat& tip_rotation) {
+  tip_rotation_ = tip_rotation;
+  return *this;
+}
+
+ChainBuilder& ChainBuilder::set_tip_frame(const glm::dvec3& tip_offset, const glm::dquat& tip_rotation) {
+  tip_offset_ = tip_offset;
+  tip_rotation_ = tip_rotation;
+  return *this;
+}
+
 void ChainBuilder::clear() {
   joints_.clear();
   tip_offset_ = glm::dvec3(0.0);
+  tip_rotation_ = glm::dquat(1.0, 0.0, 0.0, 0.0);
 }
 
 bool Chain::has_limits(int i) const {
@@ -34,6 +46,8 @@ Message ChainBuilder::build(Chain& out) const {
   const int n = static_cast<int>(joints_.size());
   if (n == 0) return Message::format("chain has 0 joints: add at least one joint");
   if (!so3::finite(tip_offset_)) return Message::format("tip_offset is not finite");
+  if (!so3::finite(tip_rotation_) || glm::length(tip_rotation_) < 1e-9)
+    return Message::format("tip_rotation must be a finite non-zero quaternion");
 
   Chain c;
   c.joint_count_ = n;
@@ -95,6 +109,7 @@ Message ChainBuilder::build(Chain& out) const {
   }
   c.dof_count_ = dofs;
   c.tip_offset_ = tip_offset_;
+  c.tip_rotation_ = glm::normalize(tip_rotation_);
   c.tip_direction_ = quat_ops::direction_code(tip_offset_);
   c.all_hinges_ = true;
   for (int i = 0; i < n; ++i) c.all_hinges_ = c.all_hinges_ && c.joint_type(i) == JointType::kHinge;
@@ -117,6 +132,41 @@ Message ChainBuilder::build(Chain& out) const {
     c.rest_tip_ = ws.tip;
   }
   out = std::move(c);
+  return Message();
+}
+
+Message Chain::set_offsets(const glm::dvec3* offset_translations, int count, const glm::dvec3& tip_offset) {
+  if (count != joint_count_)
+    return Message::format("set_offsets: %d offsets given for a chain of %d joints", count, joint_count_);
+  for (int i = 0; i < count; ++i)
+    if (!so3::finite(offset_translations[i]))
+      return Message::format("joint %d: offset_translation is not finite", i);
+  if (!so3::finite(tip_offset)) return Message::format("tip_offset is not finite");
+  double total = 0.0;
+  for (int i = 0; i < count; ++i)
+    total += glm::length(i + 1 < count ? offset_translations[i + 1] : tip_offset);
+  if (!(total > 1e-9)) return Message::format("zero-length chain: every bone has length 0");
+
+  for (int i = 0; i < count; ++i) {
+    joints_[i].offset_translation = offset_translations[i];
+    joints_[i].offset_direction = quat_ops::direction_code(offset_translations[i]);
+    bone_lengths_[i] = glm::length(i + 1 < count ? offset_translations[i + 1] : tip_offset);
+  }
+  tip_offset_ = tip_offset;
+  tip_direction_ = quat_ops::direction_code(tip_offset);
+  total_length_ = total;
+  // The rest pose's frames (params = 0): rotations do not depend on the offsets, so only the
+  // origins and the tip move; the rest DOF axes stay valid.
+  // The same arithmetic as forward_kinematics() at params = 0, so the two agree to the last bit.
+  using namespace quat_ops;
+  Quat orientation{1.0, 0.0, 0.0, 0.0};
+  glm::dvec3 origin(0.0);
+  for (int i = 0; i < count; ++i) {
+    origin += rotate_coded(orientation, joints_[i].offset_translation, Direction(joints_[i].offset_direction));
+    rest_joint_origins_[i] = origin;
+    if (joints_[i].rest_identity == 0) orientation = multiply(orientation, from_glm(rest_rotations_[i]));
+  }
+  rest_tip_ = origin + rotate_coded(orientation, tip_offset_, Direction(tip_direction_));
   return Message();
 }
 

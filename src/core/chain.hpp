@@ -6,7 +6,8 @@
 //   Q_i = Q_{i-1} * rest_rotation[i] * R_i(params)
 // with R_i = exp(r) for a ball joint (r: rotation vector, 3 params, radians) and
 // R_i = angle_axis(theta, hinge_axis) for a hinge (1 param, radians). The tip (end effector) is
-//   tip = o_{n-1} + Q_{n-1} * tip_offset.
+//   tip = o_{n-1} + Q_{n-1} * tip_offset,   tip frame orientation = Q_{n-1} * tip_rotation
+// (the tool frame: a hand, a gripper, a barrel; identity by default).
 // params = 0 is the rest pose. Bone i spans o_i -> o_{i+1} (or -> tip for the last joint).
 //
 // Effectors (where goals attach) are numbered 1..n: effector k < n is the origin o_k of joint k
@@ -60,6 +61,11 @@ class ChainBuilder {
   ChainBuilder& add_joint(const JointDesc& joint);
   // Offset of the end effector from the last joint, in the last joint's frame (m).
   ChainBuilder& set_tip_offset(const glm::dvec3& tip_offset);
+  // Rotation of the tip (tool) frame relative to the last joint's frame: orientation and aim goals
+  // on the tip mean this frame's orientation (unit quaternion after build; identity by default).
+  ChainBuilder& set_tip_rotation(const glm::dquat& tip_rotation);
+  // Both at once: the tool frame's origin (tip_offset) and orientation in the last joint's frame.
+  ChainBuilder& set_tip_frame(const glm::dvec3& tip_offset, const glm::dquat& tip_rotation);
   void clear();
 
   // Validates every field and fills `out`. On failure `out` is left invalid and the returned
@@ -69,6 +75,7 @@ class ChainBuilder {
  private:
   std::vector<JointDesc> joints_;
   glm::dvec3 tip_offset_{0.0};
+  glm::dquat tip_rotation_{1.0, 0.0, 0.0, 0.0};
 };
 
 // Immutable after build: flat arrays, one entry per joint (or per DOF where named so).
@@ -98,6 +105,7 @@ class Chain {
   bool has_limits(int i) const;
   bool any_limits() const { return any_limits_; }
   const glm::dvec3& tip_offset() const { return tip_offset_; }
+  const glm::dquat& tip_rotation() const { return tip_rotation_; }
 
   // Length of bone i (o_i -> o_{i+1}, or o_{n-1} -> tip), independent of the pose (m).
   double bone_length(int i) const { return bone_lengths_[i]; }
@@ -113,6 +121,12 @@ class Chain {
 
   // o_0: fixed by the base, independent of the pose.
   const glm::dvec3& root_in_base() const { return joints_[0].offset_translation; }
+
+  // Replaces every joint's offset_translation and the tip offset in place (same joint count) and
+  // updates what depends on them (bone lengths, direction codes, the rest pose's origins and tip),
+  // for bone positions that change per frame (an animated position, a stretchy limb). Allocates
+  // nothing. On failure (count mismatch, non-finite, zero-length) the chain is left unchanged.
+  Message set_offsets(const glm::dvec3* offset_translations, int count, const glm::dvec3& tip_offset);
 
  private:
   friend class ChainBuilder;
@@ -140,6 +154,7 @@ class Chain {
   glm::dvec3 rest_tip_{0.0};
   std::vector<double> bone_lengths_;
   glm::dvec3 tip_offset_{0.0};
+  glm::dquat tip_rotation_{1.0, 0.0, 0.0, 0.0};
   double total_length_ = 0.0;
 };
 

@@ -5,6 +5,9 @@
 //   kOrientation: log(target_orientation * conj(effector orientation))      (rad, world rotation vector)
 //   kAim:         rotation vector turning the effector's aim_axis (its own frame) onto
 //                 aim_direction, angle in [0, pi]                           (rad)
+//   kAimAt:       the same with aim_direction = normalize(target_position - effector position),
+//                 recomputed from the current pose (a turret or a head looking at a point)  (rad);
+//                 0 when the effector sits on the point (no direction to aim along)
 // The objective is 0.5 * sum_g weight_g * |e_g|^2.
 #pragma once
 #include <cstdint>
@@ -14,16 +17,16 @@
 
 namespace ikchain {
 
-enum class GoalKind : uint8_t { kPosition = 0, kOrientation = 1, kAim = 2 };
+enum class GoalKind : uint8_t { kPosition = 0, kOrientation = 1, kAim = 2, kAimAt = 3 };
 
 struct Goal {
   GoalKind kind = GoalKind::kPosition;
   // Which effector: 1..joint_count, joint_count = the tip (see chain.hpp). 0 means "the tip".
   int effector = 0;
   double weight = 1.0;  // > 0, relative importance (dimensionless)
-  glm::dvec3 target_position{0.0};                   // kPosition (m)
+  glm::dvec3 target_position{0.0};                   // kPosition, kAimAt: point in base space (m)
   glm::dquat target_orientation{1.0, 0.0, 0.0, 0.0};  // kOrientation (unit quaternion)
-  glm::dvec3 aim_axis{0.0, 1.0, 0.0};                 // kAim: axis in the effector's frame
+  glm::dvec3 aim_axis{0.0, 1.0, 0.0};                 // kAim, kAimAt: axis in the effector's frame
   glm::dvec3 aim_direction{0.0, 1.0, 0.0};            // kAim: desired world direction of aim_axis
 
   static Goal position(const glm::dvec3& p, int effector = 0, double weight = 1.0) {
@@ -48,6 +51,17 @@ struct Goal {
     g.kind = GoalKind::kAim;
     g.aim_axis = axis_local;
     g.aim_direction = direction;
+    g.effector = effector;
+    g.weight = weight;
+    return g;
+  }
+  // The effector's axis_local (its own frame) points at point_in_base.
+  static Goal aim_at(const glm::dvec3& point_in_base, const glm::dvec3& axis_local, int effector = 0,
+                     double weight = 1.0) {
+    Goal g;
+    g.kind = GoalKind::kAimAt;
+    g.target_position = point_in_base;
+    g.aim_axis = axis_local;
     g.effector = effector;
     g.weight = weight;
     return g;

@@ -44,7 +44,17 @@ glm::dvec3 effector_position(const Chain& chain, const Workspace& ws, int effect
 
 glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int effector) {
   const int k = resolve_effector(chain, effector);
+  if (k >= chain.joint_count()) return ws.joint_orientations[k - 1] * chain.tip_rotation();
   return ws.joint_orientations[k - 1];
+}
+
+bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
+                      double& distance) {
+  const glm::dvec3 d = goal.target_position - effector_position(chain, ws, goal.effector);
+  distance = glm::length(d);
+  if (!(distance > 1e-12 * chain.total_length())) return false;
+  direction = d / distance;
+  return true;
 }
 
 void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws) {
@@ -86,6 +96,12 @@ glm::dvec3 goal_error(const Chain& chain, const Goal& g, const Workspace& ws) {
     case GoalKind::kAim: {
       const glm::dvec3 a = glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis);
       return aim_error(a, glm::normalize(g.aim_direction));
+    }
+    case GoalKind::kAimAt: {
+      glm::dvec3 direction;
+      double distance;
+      if (!aim_at_direction(chain, ws, g, direction, distance)) return glm::dvec3(0.0);
+      return aim_error(glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis), direction);
     }
   }
   return glm::dvec3(0.0);
@@ -135,10 +151,14 @@ void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspac
     const int k = resolve_effector(chain, g.effector);
     const double sw = std::sqrt(g.weight);
     const int row = 3 * gi;
-    glm::dvec3 point(0.0), aim_axis(0.0);
-    if (g.kind == GoalKind::kPosition) point = effector_position(chain, ws, g.effector);
-    if (g.kind == GoalKind::kAim)
+    glm::dvec3 point(0.0), aim_axis(0.0), direction(0.0);
+    double distance = 0.0;
+    bool aim_at_defined = false;
+    if (g.kind == GoalKind::kPosition || g.kind == GoalKind::kAimAt)
+      point = effector_position(chain, ws, g.effector);
+    if (g.kind == GoalKind::kAim || g.kind == GoalKind::kAimAt)
       aim_axis = glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis);
+    if (g.kind == GoalKind::kAimAt) aim_at_defined = aim_at_direction(chain, ws, g, direction, distance);
     for (int j = 0; j < n; ++j) {
       const int o = chain.dof_offset(j);
       const int cnt = chain.dof_count_of(j);
@@ -151,6 +171,14 @@ void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspac
             case GoalKind::kOrientation: col = w; break;
             // Only the part of the rotation perpendicular to the axis turns it.
             case GoalKind::kAim: col = w - aim_axis * glm::dot(aim_axis, w); break;
+            // As kAim, plus the turn of the direction to the point as the effector moves
+            // (d x dx / distance, dx = w x (effector - o_j)): with it, -J^T e is the exact
+            // gradient of 0.5 angle^2 (d(angle) = -n.w + (d x n).dx / distance, n = unit e).
+            case GoalKind::kAimAt:
+              if (aim_at_defined)
+                col = w - aim_axis * glm::dot(aim_axis, w) +
+                      glm::cross(direction, glm::cross(w, point - ws.joint_origins[j])) / distance;
+              break;
           }
         }
         jacobian(row, o + d) = sw * col.x;

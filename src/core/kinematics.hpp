@@ -29,7 +29,12 @@ inline glm::dquat joint_motion(const Chain& chain, int joint, const double* para
 // Effector k in 1..n (0 = the tip); see chain.hpp. Valid after forward_kinematics().
 int resolve_effector(const Chain& chain, int effector);
 glm::dvec3 effector_position(const Chain& chain, const Workspace& ws, int effector);
+// The frame of the bone ending at the effector; for the tip, the tip (tool) frame (chain.hpp).
 glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int effector);
+// kAimAt: the unit direction from the goal's effector to its point and the distance; false when
+// the effector sits on the point (within 1e-12 of the chain's length). Valid after forward_kinematics().
+bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
+                      double& distance);
 
 // World rotation axis of every DOF: ws.dof_axes. For a ball joint these are the columns of
 // pre_rotation * J_l(r), so that d(params) maps exactly to world angular velocity.

@@ -45,8 +45,10 @@ Message SolverOptions::validate() const {
                            bfgs_wolfe_c1, bfgs_wolfe_c2);
   if (bfgs_max_line_search_steps <= 0)
     return Message::format("bfgs_max_line_search_steps must be > 0, got %d", bfgs_max_line_search_steps);
-  if (two_bone_use_pole && !(std::isfinite(pole_x) && std::isfinite(pole_y) && std::isfinite(pole_z)))
-    return Message::format("pole position must be finite");
+  if (!(std::isfinite(time_budget_usec) && time_budget_usec >= 0.0))
+    return Message::format("time_budget_usec must be >= 0 (0 = no budget), got %g", time_budget_usec);
+  if (use_pole && !(std::isfinite(pole_in_base.x) && std::isfinite(pole_in_base.y) && std::isfinite(pole_in_base.z)))
+    return Message::format("pole_in_base must be finite when use_pole is set");
   return Message();
 }
 

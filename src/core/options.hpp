@@ -1,5 +1,7 @@
 // Solver options: every field has its default here, with its unit. validate() names a bad field.
 #pragma once
+#include <glm/glm.hpp>
+
 #include "core/message.hpp"
 
 namespace ikchain {
@@ -28,6 +30,18 @@ struct SolverOptions {
   bool warm_start = true;
   // Largest rotation a single iteration may apply to one joint (rad); 0 = no cap.
   double max_step_angle = 0.0;
+  // Wall-clock budget of one solve (microseconds, >= 0; 0 = none). Checked once per iteration on
+  // the steady clock, so a solve overruns it by at most the iteration in progress; the result then
+  // has reason kMaxIterations and budget_exhausted = true, with the best pose reached so far.
+  double time_budget_usec = 0.0;
+
+  // --- pole (every solver)
+  // A point in base space the chain's middle should bend toward (a knee or an elbow "pole vector").
+  // Two-bone: it fixes the bend plane (root, target, pole). Every other solver: a soft preference
+  // applied after the solve, which never worsens the goals: the chain is swivelled about its
+  // root -> tip axis toward the pole (see apply_pole() in solve.cpp for what moves and when).
+  bool use_pole = false;
+  glm::dvec3 pole_in_base{0.0};  // m
 
   // --- Jacobian pseudo-inverse
   // The step is halved while the change the trial pose achieves misses the change the step
@@ -49,10 +63,6 @@ struct SolverOptions {
   double bfgs_wolfe_c1 = 1e-4;         // sufficient decrease, 0 < c1 < c2 < 1
   double bfgs_wolfe_c2 = 0.9;          // curvature condition
   int bfgs_max_line_search_steps = 20; // > 0
-
-  // --- two-bone
-  bool two_bone_use_pole = false;
-  double pole_x = 0.0, pole_y = 0.0, pole_z = 0.0;  // pole position in base space (m)
 
   // Empty message when valid; otherwise names the field: "position_tolerance must be > 0, got -1".
   Message validate() const;

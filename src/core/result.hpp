@@ -6,7 +6,8 @@ namespace ikchain {
 
 enum class TerminationReason : int {
   kConverged = 0,      // every goal within tolerance
-  kMaxIterations = 1,  // iteration budget spent while still improving; pose usable, not converged
+  kMaxIterations = 1,  // iteration or time budget spent while still improving; pose usable, not
+                       // converged (budget_exhausted tells the time budget apart)
   kStalled = 2,        // no more progress and not at a best-reach optimum (e.g. limits, local minimum)
   kUnreachable = 3,    // goals cannot all be met; the pose is the best reach (a stationary point)
   kInvalidInput = 4,   // options/goals/params/chain invalid; params untouched, see message
@@ -27,6 +28,9 @@ struct SolveResult {
   double initial_orientation_error = 0.0;
   double final_orientation_error = 0.0;
   double elapsed_us = 0.0;  // wall-clock time of the whole solve call (microseconds)
+  // True when the solver stopped because SolverOptions::time_budget_usec ran out (reason is then
+  // kMaxIterations, or kUnreachable when the pose it stopped at is provably a best reach).
+  bool budget_exhausted = false;
   Message message;          // why, for kInvalidInput (names the bad field); empty otherwise
 
   // Derived from the reason, so the two can never disagree (Ceres' IsSolutionUsable()): false only

@@ -1,9 +1,11 @@
 #include "core/solve.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
 #include "core/kinematics.hpp"
+#include "core/solvers/geometric_common.hpp"
 #include "core/solvers/solvers.hpp"
 
 namespace ikchain {
@@ -51,6 +53,76 @@ bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptio
   return ws.gradient.norm() <= 1e-6 * scale;
 }
 
+// The pole as a soft preference (SolverOptions::use_pole), for every solver but two-bone (which
+// builds its bend plane from the pole). After the solve the chain is swivelled about an axis
+// through the root joint's origin o_0 so that its middle joints turn toward the pole, with a move
+// that leaves the goals' effectors where they are:
+//  - goals only on the tip, all of them positions: the root joint turns about the root -> tip axis
+//    (the tip is on the axis, so it stays put);
+//  - goals only on the tip, some of them orientations or aims, and a ball last joint: the root
+//    joint turns about the root -> o_{n-1} axis (the "wrist" stays put) and the last joint turns
+//    back by the inverse, so the tip frame keeps its position and orientation (the elbow swivel
+//    of 7-DOF arms).
+// The angle is the one taking the middle joints' (1 .. n-2) mean offset from the axis onto the
+// pole's direction from it. Nothing happens when the root is a hinge (it can only turn about its own
+// axis, which fixes the plane the chain bends in: the solver's pose stays), when a goal sits on an
+// intermediate effector (the swivel would move it), when the chain or the pole lies on the axis,
+// or when the swivelled pose is worse than the solver's (a limit clipped the turn): the pole never
+// costs accuracy. Returns true when params changed (ws then holds their forward kinematics).
+bool apply_pole(const Chain& chain, Span<const Goal> goals, const SolverOptions& o, Workspace& ws, double* params) {
+  const int n = chain.joint_count();
+  if (!o.use_pole || n < 2 || chain.joint_type(0) != JointType::kBall) return false;
+  bool positions_only = true;
+  for (int i = 0; i < goals.size; ++i) {
+    if (resolve_effector(chain, goals[i].effector) != n) return false;
+    positions_only = positions_only && goals[i].kind == GoalKind::kPosition;
+  }
+  const bool wrist_pivot = !positions_only;
+  if (wrist_pivot && (n < 3 || chain.joint_type(n - 1) != JointType::kBall)) return false;
+  forward_kinematics(chain, params, ws);
+  const GoalErrors before = measure_goals(chain, goals, ws);
+  const double length = chain.total_length();
+  const glm::dvec3 root = ws.joint_origins[0];
+  const glm::dvec3 pivot = wrist_pivot ? ws.joint_origins[n - 1] : ws.tip;
+  const double axis_length = glm::length(pivot - root);
+  if (!(axis_length > 1e-9 * length)) return false;
+  const glm::dvec3 axis = (pivot - root) / axis_length;
+  // The middle: joints 1 .. n-2 (the last joint is the wrist or sits next to the tip), or joint 1
+  // of a two-joint chain.
+  const int middle_end = std::max(n - 1, 2);
+  glm::dvec3 middle(0.0);
+  for (int k = 1; k < middle_end; ++k) {
+    const glm::dvec3 d = ws.joint_origins[k] - root;
+    middle += d - axis * glm::dot(d, axis);
+  }
+  glm::dvec3 middle_side, pole_side;
+  if (!geometric::perpendicular_part(middle, axis, 1e-9 * length, middle_side) ||
+      !geometric::perpendicular_part(o.pole_in_base - root, axis, 1e-9 * length, pole_side))
+    return false;
+  const double angle = std::atan2(glm::dot(axis, glm::cross(middle_side, pole_side)), glm::dot(middle_side, pole_side));
+  if (std::abs(angle) < 1e-12) return false;
+  const int dofs = chain.dof_count();
+  std::copy(params, params + dofs, ws.params_trial.data());
+  const glm::dquat last_frame = ws.joint_orientations[n - 1];
+  geometric::turn_ball(chain, 0, ws.joint_pre_rotations[0], glm::angleAxis(angle, axis), 0.0, params);
+  if (wrist_pivot) {
+    forward_kinematics(chain, params, ws);
+    // Q_{n-1} = pre_{n-1} R_{n-1}: the local rotation that gives the last joint its old frame back.
+    const glm::dquat local = glm::normalize(glm::conjugate(ws.joint_pre_rotations[n - 1]) * last_frame);
+    geometric::set_ball_param(params, chain.dof_offset(n - 1), so3::log(local));
+    project_joint_to_limits(chain, n - 1, params);
+  }
+  forward_kinematics(chain, params, ws);
+  const GoalErrors after = measure_goals(chain, goals, ws);
+  const bool kept_tolerance = after.within(o) || !before.within(o);
+  if (kept_tolerance && after.max_position <= before.max_position + 1e-12 * length &&
+      after.max_orientation <= before.max_orientation + 1e-12)
+    return true;
+  std::copy(ws.params_trial.data(), ws.params_trial.data() + dofs, params);
+  forward_kinematics(chain, params, ws);
+  return false;
+}
+
 }  // namespace
 
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
@@ -89,6 +161,12 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
         if (!finite3(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
           return Message::format("goal %d: aim_direction must be a finite non-zero vector", i);
         break;
+      case GoalKind::kAimAt:
+        if (!finite3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+          return Message::format("goal %d: aim_axis must be a finite non-zero vector", i);
+        if (!finite3(g.target_position))
+          return Message::format("goal %d: target_position (the point to aim at) is not finite", i);
+        break;
       default:
         return Message::format("goal %d: unknown kind", i);
     }
@@ -112,6 +190,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     return finish();
   }
   ws.params_backup = params;
+  ws.deadline.start(options.time_budget_usec, ws.deadline.now_us());
   double* p = params.data();
 
   // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured
@@ -163,7 +242,12 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 
   // The final pose's errors: the solver's own measurement when it is of exactly these params and
   // within tolerance (nothing more to classify), else measured here.
-  const bool trust_final = status.final_measured && !restored && status.final.within(options);
+  bool posed = false;
+  if (!restored && status.reason != TerminationReason::kInvalidInput && kind != SolverKind::kTwoBone)
+    posed = apply_pole(chain, goals, options, ws, p);
+  result.budget_exhausted = ws.deadline.hit;
+
+  const bool trust_final = status.final_measured && !restored && !posed && status.final.within(options);
   if (trust_final) {
     err = status.final;
   } else {

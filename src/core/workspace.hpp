@@ -7,6 +7,8 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "core/deadline.hpp"
+
 namespace ikchain {
 
 class Chain;
@@ -22,6 +24,9 @@ struct Workspace {
   int max_goals = 0;
   int joints = 0;
   int dofs = 0;
+
+  // The running solve's time budget (solve() arms it from SolverOptions::time_budget_usec).
+  Deadline deadline;
 
   // Forward kinematics (forward_kinematics() fills these), base space.
   std::vector<glm::dvec3> joint_origins;        // o_i

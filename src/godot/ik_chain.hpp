@@ -1,8 +1,11 @@
-// IKChain: a SkeletonModifier3D that moves a chain of bones so that tip_bone's origin reaches a
-// target Node3D, using one of the core's solvers (src/core).
+// IKChain: a SkeletonModifier3D that moves a chain of bones of its parent Skeleton3D toward goals
+// (the target's position, its rotation, an aim, extra goals on inner bones), with one of the
+// core's solvers (src/core). The skeleton <-> chain mapping lives in skeleton_chain.*; this class
+// holds the properties, the configuration warnings and the per-frame call.
 //
-// Chain convention (like Godot's TwoBoneIK3D): the moving joints are the bones from root_bone
-// down to the PARENT of tip_bone; the effector is tip_bone's origin. Joints are ball joints.
+// Chain convention (like Godot's TwoBoneIK3D): the joints are the bones from root_bone down to
+// the PARENT of tip_bone and the effector is tip_bone's origin; with extend_tip_bone, tip_bone is
+// a joint too and the effector sits tip_extension_length along tip_extension_axis from it.
 // The chain's base space is root_bone's parent bone (skeleton space when root_bone has none).
 #pragma once
 
@@ -17,11 +20,14 @@
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
 #include "core/ikchain.hpp"
+#include "skeleton_chain.hpp"
 
 namespace ikchain::godot {
 
 class IKChain {
  public:
+  // Values are saved in scenes: never renumber. The names, hint string and core mapping come
+  // from one table (kSolverTable in ik_chain.cpp).
   enum Solver : int64_t {
     SOLVER_TWO_BONE = 0,
     SOLVER_CCD = 1,
@@ -29,9 +35,20 @@ class IKChain {
     SOLVER_DLS = 3,
     SOLVER_BFGS = 4,
     SOLVER_FABRIK = 5,
+    SOLVER_AUTO = 6,
+  };
+  enum GoalMode : int64_t { GOAL_MODE_REACH = 0, GOAL_MODE_AIM = 1 };
+  enum Axis : int64_t {
+    AXIS_PLUS_X = 0,
+    AXIS_MINUS_X = 1,
+    AXIS_PLUS_Y = 2,
+    AXIS_MINUS_Y = 3,
+    AXIS_PLUS_Z = 4,
+    AXIS_MINUS_Z = 5,
   };
   static constexpr int64_t kDefaultMaxIterations = 64;
-  static constexpr double kDefaultTolerance = 1e-4;  // m
+  static constexpr double kDefaultTolerance = 1e-4;             // skeleton units
+  static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
 
   // Class-wide StringNames: created at SCENE init, destroyed at SCENE deinit.
   static void register_class(gdx::ClassRecord& record);
@@ -39,84 +56,157 @@ class IKChain {
 
   explicit IKChain(gdx::ObjectPtr owner);
 
-  // Properties.
+  // ---- properties
   void set_root_bone(const gdx::String& name);
   gdx::String get_root_bone() const;
   void set_tip_bone(const gdx::String& name);
   gdx::String get_tip_bone() const;
+  void set_extend_tip_bone(bool on);
+  bool is_extend_tip_bone() const { return extend_tip_bone_; }
+  void set_tip_extension_axis(int64_t axis);
+  int64_t get_tip_extension_axis() const { return tip_extension_axis_; }
+  void set_tip_extension_length(double length);
+  double get_tip_extension_length() const { return tip_extension_length_; }
   void set_target(const gdx::NodePath& path);
-  gdx::NodePath get_target() const;
+  gdx::NodePath get_target() const { return target_; }
+  void set_use_target_transform(bool on);
+  bool is_using_target_transform() const { return use_target_transform_; }
+  void set_target_transform(const gdx::Transform3D& transform);
+  gdx::Transform3D get_target_transform() const { return target_transform_; }
   void set_solver(int64_t solver);
   int64_t get_solver() const { return solver_; }
+  void set_goal_mode(int64_t mode);
+  int64_t get_goal_mode() const { return goal_mode_; }
+  void set_aim_axis(const gdx::Vector3& axis);
+  gdx::Vector3 get_aim_axis() const { return aim_axis_; }
+  void set_use_target_rotation(bool on);
+  bool is_using_target_rotation() const { return use_target_rotation_; }
+  void set_rotation_weight(double weight);
+  double get_rotation_weight() const { return rotation_weight_; }
+  void set_pole_target(const gdx::NodePath& path);
+  gdx::NodePath get_pole_target() const { return pole_target_; }
+  void set_joints(const gdx::Array& joints);
+  gdx::Array get_joints() const { return joints_; }
+  void set_goals(const gdx::Array& goals);
+  gdx::Array get_goals() const { return goals_; }
   void set_max_iterations(int64_t n);
   int64_t get_max_iterations() const { return max_iterations_; }
-  void set_tolerance(double meters);
+  void set_tolerance(double units);
   double get_tolerance() const { return tolerance_; }
+  void set_orientation_tolerance(double radians);
+  double get_orientation_tolerance() const { return orientation_tolerance_; }
+  void set_time_budget_usec(double usec);
+  double get_time_budget_usec() const { return time_budget_usec_; }
   void set_deterministic(bool on);
   bool is_deterministic() const { return deterministic_; }
 
-  // The last solve: reason, iterations, initial_error, final_error, microseconds, usable.
+  // ---- script API
+  // The last solve: see get_last_result() in the class reference for the keys.
   gdx::Dictionary get_last_result() const;
+  // Solves and writes the pose now (tools, tests); returns get_last_result().
+  gdx::Dictionary solve_now();
+  // Skeleton bone indices of the joints, root first (empty while the chain is not valid).
+  gdx::PackedInt32Array get_chain_bones();
 
-  // Engine callbacks.
+  // ---- engine callbacks
   bool validate_property(GDExtensionPropertyInfo& property);
   void process_modification(double delta);
-  // Godot never runs the modification without a Skeleton3D parent, so that problem is reported
-  // when the node enters the tree.
   void notification(int32_t what);
   gdx::PackedStringArray get_configuration_warnings() const;
-  void skeleton_changed();  // marks the chain dirty (virtual _skeleton_changed and skeleton signals)
+  void skeleton_changed();  // virtual _skeleton_changed and the skeleton's bone signals
 
  private:
   struct Problem {
-    std::string key;  // property it concerns
+    std::string property;  // the property to fix
     std::string message;
   };
 
   void mark_dirty();
-  // Checks bones, solver and target; `problems` gets one entry per problem, with a fix.
-  void collect_chain_problems(gdx::ObjectPtr skeleton, std::vector<Problem>& problems,
-                              std::vector<int>* joint_bones, int* tip_bone) const;
-  void collect_target_problems(std::vector<Problem>& problems) const;
-  void rebuild(gdx::ObjectPtr skeleton);
-  // Connects the skeleton's bone_list_changed and rest_updated to skeleton_changed().
-  void watch_skeleton(gdx::ObjectPtr skeleton);
-  void report_once(const char* message);
-  void forget_reports_except(const std::vector<Problem>& still_active);
-  void set_invalid_result();
+  void settings_changed();  // a setting that needs no rebuild but may change the warnings
+  gdx::Skeleton3D skeleton() const;
+  // Bones, joint settings and the solver's fit to the goals; one entry per problem, with its fix.
+  void collect_chain_problems(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems,
+                              SkeletonChainDesc* desc) const;
+  void collect_goal_problems(std::vector<Problem>& problems) const;
+  void rebuild(const gdx::Skeleton3D& skeleton);
+  bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
+  void watch_skeleton(const gdx::Skeleton3D& skeleton);
+  // The solve of one frame; false when nothing was written.
+  bool run(const gdx::Skeleton3D& skeleton);
+  bool assemble_goals(const gdx::Skeleton3D& skeleton);
+  SolverKind resolved_solver() const;
+
+  // Runtime problems (a non-finite target, the solver refusing the input): printed once per
+  // spell, forgotten as soon as a frame goes well again.
+  void report_runtime(const char* message);
+  void clear_runtime_reports() { runtime_reported_.clear(); }
+  void set_invalid_result(const char* message);
 
   gdx::ObjectPtr owner_;
 
   // Settings.
   std::string root_bone_;
   std::string tip_bone_;
+  bool extend_tip_bone_ = false;
+  int64_t tip_extension_axis_ = AXIS_PLUS_Y;
+  double tip_extension_length_ = 0.0;
   gdx::NodePath target_;
-  int64_t solver_ = SOLVER_DLS;
+  bool use_target_transform_ = false;
+  gdx::Transform3D target_transform_;
+  int64_t solver_ = SOLVER_AUTO;
+  int64_t goal_mode_ = GOAL_MODE_REACH;
+  gdx::Vector3 aim_axis_{0, 1, 0};
+  bool use_target_rotation_ = false;
+  double rotation_weight_ = 1.0;
+  gdx::NodePath pole_target_;
+  gdx::Array joints_;
+  gdx::Array goals_;
   int64_t max_iterations_ = kDefaultMaxIterations;
   double tolerance_ = kDefaultTolerance;
+  double orientation_tolerance_ = kDefaultOrientationTolerance;
+  double time_budget_usec_ = 0.0;
   bool deterministic_ = false;
 
   // Built lazily from the skeleton (rebuild()); the per-frame path only reads these.
   bool dirty_ = true;
   bool chain_ok_ = false;
   uint64_t built_skeleton_id_ = 0;
-  int64_t built_bone_count_ = -1;
+  int64_t built_skeleton_version_ = -1;
+  uint64_t built_settings_generation_ = 0;
   std::vector<Problem> chain_problems_;
-  std::vector<int> joint_bones_;  // skeleton bone index of joint i (root first)
-  int base_bone_ = -1;            // root_bone's parent, -1 = skeleton space
-  Chain chain_;
+  SkeletonChain mapping_;  // skeleton <-> chain
+  int base_bone_ = -1;     // root_bone's parent, -1 = skeleton space
+  gdx::String root_bone_name_, tip_bone_name_;  // for the per-frame rename check (no allocation)
+  int root_bone_index_ = -1, tip_bone_index_ = -1;
+  // Per-frame buffers, sized at rebuild.
+  std::vector<BonePose> bone_poses_;
+  std::vector<glm::dquat> old_rotations_, new_rotations_, blended_rotations_;
   Workspace workspace_;
   SolverOptions options_;
   Eigen::VectorXd params_;
-  std::vector<gdx::Quaternion> new_rotations_;
-  Goal goal_;
+  // Skeleton3D restores the animated pose before modifiers run, so the pose read each frame is the
+  // animation's: a warm start continues from our own last solution instead (frame continuity).
+  bool params_from_last_solve_ = false;
+  std::vector<Goal> goal_buffer_;  // sized at rebuild; the per-frame path fills it in place
+  int goal_count_ = 0;
+  // Extra goals resolved at rebuild: effector index and kind for each IKChainGoal.
+  struct ExtraGoal {
+    int effector = 0;
+    GoalKind kind = GoalKind::kPosition;
+    double weight = 1.0;
+    glm::dvec3 axis_in_effector{0.0, 1.0, 0.0};
+    gdx::NodePath target;
+  };
+  std::vector<ExtraGoal> extra_goals_;
 
-  // Problems already printed (each distinct one once, until it goes away).
-  std::vector<std::string> reported_;
+  std::vector<std::string> runtime_reported_;
 
   // Last solve.
   bool has_result_ = false;
   SolveResult last_;
+  SolverKind last_solver_ = SolverKind::kDLS;
+  GoalErrors written_;  // of the pose the skeleton ends with (after its influence blend)
+  bool solver_refused_ = false;  // the last solve was kInvalidInput from the solver itself
 };
 
 }  // namespace ikchain::godot

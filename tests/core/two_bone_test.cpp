@@ -69,14 +69,12 @@ TEST(TwoBone, PoleTargetAlignment) {
     const Chain c = arm(hinge);
     Workspace ws(c, 1);
     SolverOptions o = exact_options(c);
-    o.two_bone_use_pole = true;
+    o.use_pole = true;
     for (int t = 0; t < 300; ++t) {
       const Goal g = Goal::position(test::tip_of(c, test::random_params(c, rng)));
       const glm::dvec3 root = c.root_in_base();
       const glm::dvec3 pole = root + 3.0 * glm::dvec3(u(rng), u(rng), u(rng));
-      o.pole_x = pole.x;
-      o.pole_y = pole.y;
-      o.pole_z = pole.z;
+      o.pole_in_base = pole;
       Eigen::VectorXd p = test::random_params(c, rng);
       const SolveResult r = solve(kKind, c, Span<const Goal>(&g, 1), o, ws, p);
       EXPECT_EQ(r.reason, TerminationReason::kConverged);

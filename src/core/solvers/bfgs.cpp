@@ -438,6 +438,7 @@ SolverStatus Bfgs::run() {
   int small_steps = 0;  // consecutive iterations improving f by less than stall_tolerance
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
+    if (it > 0 && ws_.deadline.spent()) break;  // the time budget: kMaxIterations
     if (err_.within(options_)) {
       status.reason = TerminationReason::kConverged;
       status.iterations = it;
@@ -491,8 +492,8 @@ SolverStatus Bfgs::run() {
   if (err_.within(options_))
     status.reason = TerminationReason::kConverged;
   else
-    status.reason = it >= options_.max_iterations ? TerminationReason::kMaxIterations
-                                                  : TerminationReason::kStalled;
+    status.reason = it >= options_.max_iterations || ws_.deadline.hit ? TerminationReason::kMaxIterations
+                                                                      : TerminationReason::kStalled;
   return status;
 }
 

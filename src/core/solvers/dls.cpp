@@ -66,6 +66,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
   int small_improvements = 0;
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
+    if (it > 1 && ws.deadline.spent()) break;  // the time budget: kMaxIterations
     status.iterations = it;
     const double cost = model.cost();
     const double predicted = model.damped_step(mu, ws.step.data());

@@ -32,8 +32,14 @@
 //    and a position goal on an intermediate effector k pins p_k to its target during the forward
 //    stage (a sub-base, sec. 5; several goals on one effector pin it to their weighted mean). Goal
 //    weights only matter between goals on the same effector.
-//  - orientation and aim goals are NOT pursued (they are measured, so such a solve reports
-//    kMaxIterations / kStalled with the position goals met). Use CCD or the Jacobian solvers.
+//  - orientation, aim and aim-at goals on the tip (the tip frame, chain.hpp) are pursued the way
+//    FABRIK's orientation extensions do it: an orientation goal T fixes where the last joint must
+//    be, o_{n-1} = tip - T conj(tip_rotation) tip_offset, so the forward stage pins p_{n-1} there
+//    (after the tip; the heaviest such goal wins); after the backward stage the last joint takes
+//    the rotation that best serves every tip goal (CCD's per-joint fit, geometric::fit_joint:
+//    the twist about the last bone and any aim). On an intermediate effector they are rejected
+//    (kInvalidInput, the message names the goal): turning a middle joint to an orientation would
+//    move everything after it, which FABRIK's stages do not model. Use CCD or the Jacobian solvers.
 // Termination: converged on tolerance; stalled after kFabrikStallIterations iterations in a row
 // that improve the cost by less than stall_tolerance (relative to the previous one's) - a longer
 // window than CCD's, because with hinges FABRIK's cost is not monotone; otherwise the budget. The
@@ -50,6 +56,7 @@ namespace ikchain {
 namespace {
 
 constexpr int kFabrikStallIterations = 8;
+constexpr int kMaxGoals = 16;  // with orientation/aim goals (the final alignment tracks each goal)
 
 // Weighted mean of the position goals on effector k (1..n); false when there are none.
 bool pinned_target(const Chain& chain, Span<const Goal> goals, int k, glm::dvec3& out) {
@@ -65,6 +72,20 @@ bool pinned_target(const Chain& chain, Span<const Goal> goals, int k, glm::dvec3
   return true;
 }
 
+// Where the heaviest tip orientation goal puts the last joint's origin, given the tip at `tip`.
+bool last_joint_pin(const Chain& chain, Span<const Goal> goals, const glm::dvec3& tip, glm::dvec3& out) {
+  const int n = chain.joint_count();
+  const Goal* heaviest = nullptr;
+  for (int g = 0; g < goals.size; ++g)
+    if (goals[g].kind == GoalKind::kOrientation && resolve_effector(chain, goals[g].effector) == n &&
+        (!heaviest || goals[g].weight > heaviest->weight))
+      heaviest = &goals[g];
+  if (!heaviest) return false;
+  const glm::dquat last_frame = glm::normalize(heaviest->target_orientation) * glm::conjugate(chain.tip_rotation());
+  out = tip - last_frame * chain.tip_offset();
+  return true;
+}
+
 // Forward reaching stage into ws.points_b[1..n] from the current points ws.points_a.
 void forward_reaching(const Chain& chain, Span<const Goal> goals, Workspace& ws) {
   const int n = chain.joint_count();
@@ -73,7 +94,7 @@ void forward_reaching(const Chain& chain, Span<const Goal> goals, Workspace& ws)
   if (!pinned_target(chain, goals, n, b[n])) b[n] = a[n];
   for (int i = n - 1; i >= 1; --i) {
     glm::dvec3 pin;
-    if (pinned_target(chain, goals, i, pin)) {
+    if (pinned_target(chain, goals, i, pin) || (i == n - 1 && last_joint_pin(chain, goals, b[n], pin))) {
       b[i] = pin;
       continue;
     }
@@ -93,6 +114,26 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
                           Workspace& ws, double* params) {
   SolverStatus status;
   const int n = chain.joint_count();
+  bool tip_frame_goals = false;
+  for (int g = 0; g < goals.size; ++g) {
+    if (goals[g].kind == GoalKind::kPosition) continue;
+    const int k = resolve_effector(chain, goals[g].effector);
+    if (k != n) {
+      status.reason = TerminationReason::kInvalidInput;
+      status.message = Message::format(
+          "fabrik: goal %d (orientation/aim) is on effector %d; FABRIK pursues those only on the tip "
+          "(effector 0 or %d): use CCD, DLS or BFGS", g, k, n);
+      return status;
+    }
+    tip_frame_goals = true;
+  }
+  if (tip_frame_goals && goals.size > kMaxGoals) {
+    status.reason = TerminationReason::kInvalidInput;
+    status.message = Message::format("fabrik supports at most %d goals with orientation/aim goals, got %d",
+                                     kMaxGoals, goals.size);
+    return status;
+  }
+  geometric::Tracked tracked[kMaxGoals];
   geometric::Progress progress(chain, goals, options, ws, params, kFabrikStallIterations);
   status.reason = TerminationReason::kMaxIterations;
   while (status.iterations < options.max_iterations) {
@@ -105,6 +146,12 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
     }
     std::copy(params, params + chain.dof_count(), ws.params_trial.data());
     geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params);
+    if (tip_frame_goals) {  // final alignment of the last joint (see above)
+      forward_kinematics(chain, params, ws);
+      geometric::track_goals(chain, goals, ws, tracked);
+      geometric::fit_joint(chain, goals, tracked, n - 1, ws.joint_origins[n - 1], ws.joint_pre_rotations[n - 1],
+                           options.max_step_angle, params);
+    }
     ++status.iterations;
     double moved = 0.0;
     for (int d = 0; d < chain.dof_count(); ++d)

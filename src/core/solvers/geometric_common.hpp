@@ -14,14 +14,13 @@
 #include "core/chain.hpp"
 #include "core/kinematics.hpp"
 #include "core/result.hpp"
+#include "core/goal.hpp"
 #include "core/so3.hpp"
+#include "core/span.hpp"
 #include "core/workspace.hpp"
 
 namespace ikchain {
 namespace geometric {
-
-
-
 
 inline const glm::dquat kIdentity(1.0, 0.0, 0.0, 0.0);
 
@@ -202,7 +201,18 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
       for (int k = j + 1; k <= n; ++k) {
         const glm::dvec3 current = moved * (old_point(k) - old_origin);
         if (glm::length(current) <= tiny) continue;
-        turn_ball(chain, j, pre, rotation_between(current, desired[k] - origin), max_step_angle, params);
+        const glm::dvec3 aim = desired[k] - origin;
+        const glm::dquat applied =
+            turn_ball(chain, j, pre, rotation_between(current, aim), max_step_angle, params);
+        // A hinge next can only bend in its own plane, which the minimal rotation leaves where it
+        // was: a hip swung toward a knee point keeps the knee's plane away from the foot's target
+        // (FABRIK then stalls on legs with hinge knees). So the ball also twists about its new
+        // bone direction (o_{j+1} stays put) by the angle that best aligns the points after it.
+        if (j + 1 < n && chain.joint_type(j + 1) == JointType::kHinge && glm::length(aim) > tiny) {
+          const glm::dvec3 bone = glm::normalize(aim);
+          const HingeFit fit = sums.fit(bone, glm::normalize(applied * moved), old_origin - root, origin - root);
+          turn_ball(chain, j, pre, glm::angleAxis(fit.angle(), bone), max_step_angle, params);
+        }
         break;
       }
     } else {
@@ -230,6 +240,173 @@ inline void curl(const Chain& chain, double angle, double* params) {
     set_ball_param(params, o, so3::log(so3::exp(ball_param(params, o)) * glm::angleAxis(angle, axis)));
     project_joint_to_limits(chain, j, params);
   }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Per-joint goal fits (CCD's sweep; FABRIK's final alignment of the tip joint). Each goal becomes
+// weighted vector pairs (current a -> desired b, seen from the joint's origin); see ccd.cpp.
+
+// An effector a goal is attached to, tracked through the sweep.
+struct Tracked {
+  int effector = 0;  // 1..n
+  glm::dvec3 position{0.0};
+  glm::dquat orientation{1.0, 0.0, 0.0, 0.0};
+};
+
+// Cyclic Jacobi eigen-decomposition of a symmetric 4x4 matrix, in place: on return a is diagonal
+// (the eigenvalues) and the columns of v the eigenvectors. Golub & Van Loan, Matrix Computations,
+// sec. 8.5 (cyclic Jacobi); quadratically convergent, a handful of sweeps at 4x4. Written out rather
+// than Eigen::SelfAdjointEigenSolver, whose tridiagonalisation goes through dynamic-size blocks.
+inline void jacobi_eigen4(double a[4][4], double v[4][4]) {
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) v[r][c] = r == c ? 1.0 : 0.0;
+  for (int sweep = 0; sweep < 30; ++sweep) {
+    double off = 0.0, total = 0.0;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) {
+        total += a[r][c] * a[r][c];
+        if (r != c) off += a[r][c] * a[r][c];
+      }
+    if (off <= 1e-30 * total || off == 0.0) return;
+    for (int p = 0; p < 3; ++p)
+      for (int q = p + 1; q < 4; ++q) {
+        if (a[p][q] == 0.0) continue;
+        const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+        const double t = (theta >= 0.0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
+        const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
+        for (int k = 0; k < 4; ++k) {  // A <- A J (columns p, q)
+          const double akp = a[k][p], akq = a[k][q];
+          a[k][p] = c * akp - s * akq;
+          a[k][q] = s * akp + c * akq;
+        }
+        for (int k = 0; k < 4; ++k) {  // A <- J^T A (rows p, q)
+          const double apk = a[p][k], aqk = a[q][k];
+          a[p][k] = c * apk - s * aqk;
+          a[q][k] = s * apk + c * aqk;
+        }
+        for (int k = 0; k < 4; ++k) {  // V <- V J
+          const double vkp = v[k][p], vkq = v[k][q];
+          v[k][p] = c * vkp - s * vkq;
+          v[k][q] = s * vkp + c * vkq;
+        }
+      }
+  }
+}
+
+// Accumulates the vector pairs of one joint (see the file comment).
+struct BallFit {
+  int pairs = 0;
+  glm::dvec3 first_a{0.0}, first_b{0.0};
+  double m[3][3] = {{0.0}};  // sum w a b^T
+  void add(const glm::dvec3& a, const glm::dvec3& b, double w) {
+    if (pairs++ == 0) {
+      first_a = a;
+      first_b = b;
+    }
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) m[r][c] += w * a[r] * b[c];
+  }
+  glm::dquat rotation() const {
+    if (pairs == 1) return rotation_between(first_a, first_b);
+    // Horn 1987, eq. for N: rotation maximising sum w b . R a is N's top eigenvector (w, x, y, z).
+    const double sxx = m[0][0], sxy = m[0][1], sxz = m[0][2];
+    const double syx = m[1][0], syy = m[1][1], syz = m[1][2];
+    const double szx = m[2][0], szy = m[2][1], szz = m[2][2];
+    double a[4][4] = {{sxx + syy + szz, syz - szy, szx - sxz, sxy - syx},
+                      {syz - szy, sxx - syy - szz, sxy + syx, szx + sxz},
+                      {szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy},
+                      {sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz}};
+    double v[4][4];
+    jacobi_eigen4(a, v);  // eigenvalues a[i][i], eigenvectors the columns of v
+    double top = a[0][0], scale = 0.0;
+    for (int i = 0; i < 4; ++i) {
+      top = std::max(top, a[i][i]);
+      scale = std::max(scale, std::abs(a[i][i]));
+    }
+    // Among rotations that are all optimal (degenerate top eigenvalue, e.g. pairs all parallel),
+    // take the one closest to the identity: project (1, 0, 0, 0) on the top eigenspace.
+    double q[4] = {0.0, 0.0, 0.0, 0.0};
+    for (int i = 0; i < 4; ++i)
+      if (a[i][i] >= top - 1e-9 * scale)
+        for (int r = 0; r < 4; ++r) q[r] += v[r][i] * v[0][i];
+    double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (norm < 1e-6) {
+      for (int i = 0; i < 4; ++i)
+        if (a[i][i] == top)
+          for (int r = 0; r < 4; ++r) q[r] = v[r][i];
+      norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    }
+    if (!(norm > 0.0) || !std::isfinite(norm)) return kIdentity;
+    for (double& x : q) x /= norm;
+    return glm::dquat(q[0], q[1], q[2], q[3]);
+  }
+};
+
+// Adds goal g's pairs seen from `origin` to a fit (BallFit or HingeFit through `add`).
+template <typename AddPair>
+inline void goal_pairs(const Goal& g, const Tracked& t, const glm::dvec3& origin, AddPair&& add) {
+  switch (g.kind) {
+    case GoalKind::kPosition:
+      add(t.position - origin, g.target_position - origin, g.weight);
+      break;
+    case GoalKind::kOrientation: {
+      const glm::dquat target = glm::normalize(g.target_orientation);
+      for (int i = 0; i < 3; ++i) {
+        glm::dvec3 e(0.0);
+        e[i] = 1.0;
+        add(t.orientation * e, target * e, 0.5 * g.weight);
+      }
+      break;
+    }
+    case GoalKind::kAim:
+      add(glm::normalize(t.orientation * g.aim_axis), glm::normalize(g.aim_direction), g.weight);
+      break;
+    case GoalKind::kAimAt: {
+      // The direction to the point from where the effector is now: exact once the joint's turn
+      // no longer moves the effector much, refined by the next sweep otherwise.
+      const glm::dvec3 to_point = g.target_position - t.position;
+      if (glm::length(to_point) > 0.0)
+        add(glm::normalize(t.orientation * g.aim_axis), glm::normalize(to_point), g.weight);
+      break;
+    }
+  }
+}
+
+// Where each goal's effector is now (after forward_kinematics()).
+inline void track_goals(const Chain& chain, Span<const Goal> goals, const Workspace& ws, Tracked* tracked) {
+  for (int g = 0; g < goals.size; ++g) {
+    tracked[g].effector = resolve_effector(chain, goals[g].effector);
+    tracked[g].position = effector_position(chain, ws, goals[g].effector);
+    tracked[g].orientation = effector_orientation(chain, ws, goals[g].effector);
+  }
+}
+
+// Turns joint j (ball or hinge) to the rotation that best serves the goals on effectors after it
+// (tracked[g] holds goal g's effector as the pose is now), limits applied. Returns the world
+// rotation applied about o_j, or the identity when no goal is after j.
+inline glm::dquat fit_joint(const Chain& chain, Span<const Goal> goals, const Tracked* tracked, int j,
+                            const glm::dvec3& origin, const glm::dquat& pre, double max_step_angle,
+                            double* params) {
+  if (chain.joint_type(j) == JointType::kBall) {
+    BallFit fit;
+    for (int g = 0; g < goals.size; ++g)
+      if (tracked[g].effector > j)
+        goal_pairs(goals[g], tracked[g], origin,
+                   [&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(a, b, w); });
+    if (fit.pairs == 0) return kIdentity;
+    return turn_ball(chain, j, pre, fit.rotation(), max_step_angle, params);
+  }
+  const glm::dvec3 axis = hinge_axis_world(chain, j, pre);
+  HingeFit fit;
+  bool any = false;
+  for (int g = 0; g < goals.size; ++g)
+    if (tracked[g].effector > j) {
+      any = true;
+      goal_pairs(goals[g], tracked[g], origin,
+                 [&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(axis, a, b, w); });
+    }
+  if (!any) return kIdentity;
+  return glm::angleAxis(turn_hinge(chain, j, fit.angle(), max_step_angle, params), axis);
 }
 
 // Keeps the lowest-cost pose seen so far in ws.params_best (the contract: leave params at the best
@@ -310,9 +487,15 @@ class Progress {
     }
     stalls_ = (previous_cost_ - err.cost <= options_.stall_tolerance * previous_cost_) ? stalls_ + 1 : 0;
     previous_cost_ = err.cost;
-    if (stalls_ < stall_iterations_) return false;
-    reason = TerminationReason::kStalled;
-    return true;
+    if (stalls_ >= stall_iterations_) {
+      reason = TerminationReason::kStalled;
+      return true;
+    }
+    if (ws_.deadline.spent()) {
+      reason = TerminationReason::kMaxIterations;  // the time budget
+      return true;
+    }
+    return false;
   }
 
   // A converged pose stays as it is; otherwise params (and ws's FK) go to the best pose seen.

@@ -204,6 +204,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
   int creeping = 0;
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
+    if (it > 1 && ws.deadline.spent()) break;  // the time budget: kMaxIterations
     status.iterations = it;
     const double cost = model.cost();
     // The full pseudo-inverse first; when no halving of it is accepted, the same with the smallest

@@ -18,7 +18,7 @@
 //     closest distance wins, ties going to the smaller change (continuity).
 //  3. Root. Without a pole: the minimal rotation taking tip - o_0 onto the target direction (the
 //     bend plane turns as little as possible - "keep the current bend plane"). With a pole
-//     (options.two_bone_use_pole, pole_x/y/z in base space): the rotation taking the frame
+//     (options.use_pole, pole_in_base): the rotation taking the frame
 //     (tip direction, elbow side) onto (target direction, pole side), which puts the elbow in the
 //     plane root-target-pole on the pole's side. A pole on the root-target line gives no plane: the
 //     no-pole rule applies. A hinge root can only turn about its axis: it turns to the angle that
@@ -95,7 +95,7 @@ SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const So
   }
   status.iterations = 1;
   const glm::dvec3 target = goals[0].target_position;
-  const glm::dvec3 pole(options.pole_x, options.pole_y, options.pole_z);
+  const glm::dvec3 pole = options.pole_in_base;
   forward_kinematics(chain, params, ws);
   geometric::BestPose best;
   best.init(chain, ws, params, measure_goals(chain, goals, ws).cost);
@@ -122,7 +122,7 @@ SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const So
       const glm::dvec3 u_dir = u / l1;
       glm::dvec3 side;
       if (!geometric::perpendicular_part(v, u_dir, tiny, side) &&
-          !(options.two_bone_use_pole && geometric::perpendicular_part(pole - root, u_dir, tiny, side)) &&
+          !(options.use_pole && geometric::perpendicular_part(pole - root, u_dir, tiny, side)) &&
           !geometric::perpendicular_part(to_target, u_dir, tiny, side) &&
           !geometric::perpendicular_part(rest_frame * glm::dvec3(1, 0, 0), u_dir, 1e-6, side))
         side = geometric::any_perpendicular(u_dir);
@@ -145,7 +145,7 @@ SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const So
     if (chain.joint_type(0) == JointType::kBall) {
       glm::dquat turn = geometric::rotation_between(p, dir);
       glm::dvec3 pole_side, elbow_side;
-      if (options.two_bone_use_pole && geometric::perpendicular_part(pole - root, dir, tiny, pole_side)) {
+      if (options.use_pole && geometric::perpendicular_part(pole - root, dir, tiny, pole_side)) {
         const double plen = glm::length(p);
         if (plen > tiny && geometric::perpendicular_part(u, p / plen, tiny, elbow_side))
           turn = frame_rotation(p / plen, elbow_side, dir, pole_side);

@@ -17,7 +17,13 @@ struct Ops {
 };
 
 struct Table {
-  Ops string, string_name, node_path, dictionary, packed_string_array, callable;
+  Ops string, string_name, node_path, dictionary, packed_string_array, callable, array, packed_int32_array;
+  GDExtensionVariantFromTypeConstructorFunc variant_from_vector3 = nullptr;
+  GDExtensionVariantFromTypeConstructorFunc variant_from_transform3d = nullptr;
+  GDExtensionTypeFromVariantConstructorFunc array_from_variant = nullptr;
+  GDExtensionTypeFromVariantConstructorFunc vector3_from_variant = nullptr;
+  GDExtensionTypeFromVariantConstructorFunc transform3d_from_variant = nullptr;
+  GDExtensionTypeFromVariantConstructorFunc object_from_variant = nullptr;
   GDExtensionPtrConstructor string_from_string_name = nullptr;
   GDExtensionPtrConstructor string_name_from_string = nullptr;
   GDExtensionPtrConstructor string_from_node_path = nullptr;
@@ -55,6 +61,8 @@ GDExtensionVariantType builtin_type_by_name(const char* name) {
       {"NodePath", GDEXTENSION_VARIANT_TYPE_NODE_PATH},
       {"PackedStringArray", GDEXTENSION_VARIANT_TYPE_PACKED_STRING_ARRAY},
       {"Dictionary", GDEXTENSION_VARIANT_TYPE_DICTIONARY},
+      {"Array", GDEXTENSION_VARIANT_TYPE_ARRAY},
+      {"PackedInt32Array", GDEXTENSION_VARIANT_TYPE_PACKED_INT32_ARRAY},
   };
   for (const Entry& e : kTypes)
     if (std::strcmp(e.name, name) == 0) return e.type;
@@ -77,6 +85,15 @@ bool init_builtins() {
   t.packed_string_array = ops_for(GDEXTENSION_VARIANT_TYPE_PACKED_STRING_ARRAY, gen::kCtor_PackedStringArray_default,
                                   gen::kCtor_PackedStringArray_PackedStringArray);
   t.callable = ops_for(GDEXTENSION_VARIANT_TYPE_CALLABLE, gen::kCtor_Callable_default, gen::kCtor_Callable_Callable);
+  t.array = ops_for(GDEXTENSION_VARIANT_TYPE_ARRAY, gen::kCtor_Array_default, gen::kCtor_Array_Array);
+  t.packed_int32_array = ops_for(GDEXTENSION_VARIANT_TYPE_PACKED_INT32_ARRAY, gen::kCtor_PackedInt32Array_default,
+                                 gen::kCtor_PackedInt32Array_PackedInt32Array);
+  t.variant_from_vector3 = gde.get_variant_from_type_constructor(GDEXTENSION_VARIANT_TYPE_VECTOR3);
+  t.variant_from_transform3d = gde.get_variant_from_type_constructor(GDEXTENSION_VARIANT_TYPE_TRANSFORM3D);
+  t.array_from_variant = gde.get_variant_to_type_constructor(GDEXTENSION_VARIANT_TYPE_ARRAY);
+  t.vector3_from_variant = gde.get_variant_to_type_constructor(GDEXTENSION_VARIANT_TYPE_VECTOR3);
+  t.transform3d_from_variant = gde.get_variant_to_type_constructor(GDEXTENSION_VARIANT_TYPE_TRANSFORM3D);
+  t.object_from_variant = gde.get_variant_to_type_constructor(GDEXTENSION_VARIANT_TYPE_OBJECT);
   t.string_from_string_name =
       gde.variant_get_ptr_constructor(GDEXTENSION_VARIANT_TYPE_STRING, gen::kCtor_String_StringName);
   t.string_name_from_string =
@@ -239,6 +256,55 @@ String PackedStringArray::get(int64_t i) const {
   return out;
 }
 
+// ---- Array ----
+Array::Array() { t.array.ctor_default(opaque_, nullptr); }
+Array::Array(const Array& other) { copy_construct(t.array, opaque_, other.opaque_); }
+Array& Array::operator=(const Array& other) {
+  if (this != &other) {
+    t.array.dtor(opaque_);
+    copy_construct(t.array, opaque_, other.opaque_);
+  }
+  return *this;
+}
+Array::~Array() { t.array.dtor(opaque_); }
+int64_t Array::size() const {
+  int64_t n = 0;
+  t.builtin[int(gen::BuiltinMethod::Array_size)](const_cast<uint8_t*>(opaque_), nullptr, &n, 0);
+  return n;
+}
+GDExtensionConstVariantPtr Array::at(int64_t i) const {
+  if (i < 0 || i >= size()) return nullptr;
+  return gde.array_operator_index_const(opaque_, i);
+}
+
+// ---- PackedInt32Array ----
+PackedInt32Array::PackedInt32Array() { t.packed_int32_array.ctor_default(opaque_, nullptr); }
+PackedInt32Array::PackedInt32Array(const PackedInt32Array& other) {
+  copy_construct(t.packed_int32_array, opaque_, other.opaque_);
+}
+PackedInt32Array& PackedInt32Array::operator=(const PackedInt32Array& other) {
+  if (this != &other) {
+    t.packed_int32_array.dtor(opaque_);
+    copy_construct(t.packed_int32_array, opaque_, other.opaque_);
+  }
+  return *this;
+}
+PackedInt32Array::~PackedInt32Array() { t.packed_int32_array.dtor(opaque_); }
+void PackedInt32Array::push_back(int64_t v) {
+  GDExtensionConstTypePtr args[1] = {&v};
+  uint8_t ignored = 0;
+  t.builtin[int(gen::BuiltinMethod::PackedInt32Array_push_back)](opaque_, args, &ignored, 1);
+}
+int64_t PackedInt32Array::size() const {
+  int64_t n = 0;
+  t.builtin[int(gen::BuiltinMethod::PackedInt32Array_size)](const_cast<uint8_t*>(opaque_), nullptr, &n, 0);
+  return n;
+}
+int32_t PackedInt32Array::get(int64_t i) const {
+  if (i < 0 || i >= size()) return 0;
+  return *gde.packed_int32_array_operator_index_const(opaque_, i);
+}
+
 // ---- Callable ----
 Callable::Callable(ObjectPtr object, const StringName& method) {
   GDExtensionConstTypePtr args[2] = {&object, method.ptr()};
@@ -269,6 +335,12 @@ Variant::Variant(const Dictionary& v) { t.dictionary.to_variant(opaque_, const_c
 Variant::Variant(const PackedStringArray& v) {
   t.packed_string_array.to_variant(opaque_, const_cast<GDExtensionTypePtr>(v.ptr()));
 }
+Variant::Variant(const PackedInt32Array& v) {
+  t.packed_int32_array.to_variant(opaque_, const_cast<GDExtensionTypePtr>(v.ptr()));
+}
+Variant::Variant(const Array& v) { t.array.to_variant(opaque_, const_cast<GDExtensionTypePtr>(v.ptr())); }
+Variant::Variant(const Vector3& v) { t.variant_from_vector3(opaque_, const_cast<Vector3*>(&v)); }
+Variant::Variant(const Transform3D& v) { t.variant_from_transform3d(opaque_, const_cast<Transform3D*>(&v)); }
 GDExtensionVariantType Variant::type() const { return gde.variant_get_type(opaque_); }
 void Variant::assign_to(GDExtensionVariantPtr engine_variant, const Variant& value) {
   gde.variant_destroy(engine_variant);
@@ -336,6 +408,30 @@ bool variant_to(GDExtensionConstVariantPtr v, Dictionary& out) {
   if (gde.variant_get_type(v) != GDEXTENSION_VARIANT_TYPE_DICTIONARY) return false;
   t.dictionary_from_variant(out.ptr(), const_cast<GDExtensionVariantPtr>(v));
   return true;
+}
+
+bool variant_to(GDExtensionConstVariantPtr v, Array& out) {
+  if (gde.variant_get_type(v) != GDEXTENSION_VARIANT_TYPE_ARRAY) return false;
+  t.array_from_variant(out.ptr(), const_cast<GDExtensionVariantPtr>(v));
+  return true;
+}
+bool variant_to(GDExtensionConstVariantPtr v, Vector3& out) {
+  if (gde.variant_get_type(v) != GDEXTENSION_VARIANT_TYPE_VECTOR3) return false;
+  t.vector3_from_variant(&out, const_cast<GDExtensionVariantPtr>(v));
+  return true;
+}
+bool variant_to(GDExtensionConstVariantPtr v, Transform3D& out) {
+  if (gde.variant_get_type(v) != GDEXTENSION_VARIANT_TYPE_TRANSFORM3D) return false;
+  t.transform3d_from_variant(&out, const_cast<GDExtensionVariantPtr>(v));
+  return true;
+}
+bool variant_to(GDExtensionConstVariantPtr v, ObjectPtr& out) {
+  out = nullptr;
+  switch (gde.variant_get_type(v)) {
+    case GDEXTENSION_VARIANT_TYPE_NIL: return true;
+    case GDEXTENSION_VARIANT_TYPE_OBJECT: t.object_from_variant(&out, const_cast<GDExtensionVariantPtr>(v)); return true;
+    default: return false;
+  }
 }
 
 }  // namespace ikchain::gdx

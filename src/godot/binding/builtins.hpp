@@ -108,6 +108,38 @@ class PackedStringArray {
   alignas(8) uint8_t opaque_[gen::kSize_PackedStringArray] = {};
 };
 
+class Array {
+ public:
+  Array();
+  Array(const Array& other);
+  Array& operator=(const Array& other);
+  ~Array();
+  int64_t size() const;
+  // The element's Variant (owned by the array); null when out of range.
+  GDExtensionConstVariantPtr at(int64_t i) const;
+  GDExtensionTypePtr ptr() { return opaque_; }
+  GDExtensionConstTypePtr ptr() const { return opaque_; }
+
+ private:
+  alignas(8) uint8_t opaque_[gen::kSize_Array] = {};
+};
+
+class PackedInt32Array {
+ public:
+  PackedInt32Array();
+  PackedInt32Array(const PackedInt32Array& other);
+  PackedInt32Array& operator=(const PackedInt32Array& other);
+  ~PackedInt32Array();
+  void push_back(int64_t v);
+  int64_t size() const;
+  int32_t get(int64_t i) const;
+  GDExtensionTypePtr ptr() { return opaque_; }
+  GDExtensionConstTypePtr ptr() const { return opaque_; }
+
+ private:
+  alignas(8) uint8_t opaque_[gen::kSize_PackedInt32Array] = {};
+};
+
 class Callable {
  public:
   Callable(ObjectPtr object, const StringName& method);
@@ -135,6 +167,10 @@ class Variant {
   explicit Variant(const NodePath& v);
   explicit Variant(const Dictionary& v);
   explicit Variant(const PackedStringArray& v);
+  explicit Variant(const PackedInt32Array& v);
+  explicit Variant(const Array& v);
+  explicit Variant(const Vector3& v);
+  explicit Variant(const Transform3D& v);
 
   GDExtensionVariantType type() const;
   GDExtensionVariantPtr ptr() { return opaque_; }
@@ -163,5 +199,10 @@ bool variant_to(GDExtensionConstVariantPtr v, double& out);
 bool variant_to(GDExtensionConstVariantPtr v, String& out);
 bool variant_to(GDExtensionConstVariantPtr v, NodePath& out);
 bool variant_to(GDExtensionConstVariantPtr v, Dictionary& out);
+bool variant_to(GDExtensionConstVariantPtr v, Array& out);
+bool variant_to(GDExtensionConstVariantPtr v, Vector3& out);
+bool variant_to(GDExtensionConstVariantPtr v, Transform3D& out);
+// An Object (null for a nil Variant or a freed object); false for any other type.
+bool variant_to(GDExtensionConstVariantPtr v, ObjectPtr& out);
 
 }  // namespace ikchain::gdx

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "binding/builtins.hpp"
-#include "binding/engine.hpp"
+#include "binding/classes.hpp"
 #include "binding/interface.hpp"
 #include "binding/log.hpp"
 
@@ -66,6 +66,21 @@ template <>
 struct ArgTraits<Dictionary> : BuiltinArgTraits<Dictionary, GDEXTENSION_VARIANT_TYPE_DICTIONARY> {};
 template <>
 struct ArgTraits<PackedStringArray> : BuiltinArgTraits<PackedStringArray, GDEXTENSION_VARIANT_TYPE_PACKED_STRING_ARRAY> {};
+template <>
+struct ArgTraits<PackedInt32Array> : BuiltinArgTraits<PackedInt32Array, GDEXTENSION_VARIANT_TYPE_PACKED_INT32_ARRAY> {};
+template <>
+struct ArgTraits<Array> : BuiltinArgTraits<Array, GDEXTENSION_VARIANT_TYPE_ARRAY> {};
+template <>
+struct ArgTraits<Vector3> : BuiltinArgTraits<Vector3, GDEXTENSION_VARIANT_TYPE_VECTOR3> {};
+template <>
+struct ArgTraits<Transform3D> : BuiltinArgTraits<Transform3D, GDEXTENSION_VARIANT_TYPE_TRANSFORM3D> {};
+
+// What a bound method returns, beyond its C++ type: an enum (`return_class` = "Class.Enum",
+// shown as such in the class reference) or a typed array (`return_array_of` = "IKChainJoint").
+struct ReturnInfo {
+  const char* return_enum = nullptr;
+  const char* return_array_of = nullptr;
+};
 
 // ---- property description ----
 struct PropertySpec {
@@ -82,12 +97,18 @@ struct ClassRecord;
 
 struct MethodRecordBase {
   virtual ~MethodRecordBase() = default;
+  std::string class_name, method_name;
+  std::vector<std::string> arg_names;
+  void report_bad_argument(int32_t index, GDExtensionVariantType expected, GDExtensionVariantType got) const;
 };
 
+// A virtual of the engine parent that the class overrides, dispatched by name + hash.
 struct VirtualRecord {
+  VirtualRecord(const char* n, uint32_t h) : name(n), hash(h) {}
+  virtual ~VirtualRecord() = default;
+  virtual void call(void* instance, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret) const = 0;
   StringName name;
   uint32_t hash;
-  void (*thunk)(void* instance, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret);
 };
 
 struct ClassRecord {
@@ -96,6 +117,22 @@ struct ClassRecord {
   std::vector<std::unique_ptr<MethodRecordBase>> methods;
   std::vector<std::unique_ptr<VirtualRecord>> virtuals;
 };
+
+// Instance bindings: every instance of our classes is registered with the engine object that owns
+// it, so an Object found in an Array (a Resource of ours) leads back to its C++ instance.
+inline const GDExtensionInstanceBindingCallbacks kInstanceBindingCallbacks = {
+    /*create_callback=*/[](void*, void*) -> void* { return nullptr; },
+    /*free_callback=*/[](void*, void*, void*) {},
+    /*reference_callback=*/[](void*, void*, GDExtensionBool) -> GDExtensionBool { return 1; },
+};
+
+// The C++ instance of class C (registered under `class_name`) behind `object`; null when `object`
+// is null or not a C.
+template <class C>
+C* instance_of(ObjectPtr object, const String& class_name) {
+  if (object == nullptr || !Object(object).is_class(class_name)) return nullptr;
+  return static_cast<C*>(gde.object_get_instance_binding(object, gde.library, &kInstanceBindingCallbacks));
+}
 
 namespace detail {
 
@@ -109,19 +146,29 @@ inline void set_call_error(GDExtensionCallError* e, GDExtensionCallErrorType typ
   e->expected = expected;
 }
 
+// One bound member function of C: R (C::*)(A...), const or not. Both call paths decode the
+// arguments with ArgTraits / variant_to and invoke the member directly.
 template <class C, class R, class... A>
 struct MethodRecord final : MethodRecordBase {
-  using Fn = R (*)(C&, bare_t<A>...);
-  Fn fn;
+  using Fn = R (C::*)(A...);
+  using ConstFn = R (C::*)(A...) const;
+  Fn fn = nullptr;
+  ConstFn const_fn = nullptr;
   explicit MethodRecord(Fn f) : fn(f) {}
+  explicit MethodRecord(ConstFn f) : const_fn(f) {}
+
+  template <class... V>
+  R invoke(C& obj, V&&... values) const {
+    return const_fn ? (obj.*const_fn)(std::forward<V>(values)...) : (obj.*fn)(std::forward<V>(values)...);
+  }
 
   template <size_t... I>
   static void ptrcall_impl(MethodRecord* self, C& obj, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret,
                            std::index_sequence<I...>) {
     if constexpr (std::is_void_v<R>) {
-      self->fn(obj, ArgTraits<bare_t<A>>::from_ptr(args[I])...);
+      self->invoke(obj, ArgTraits<bare_t<A>>::from_ptr(args[I])...);
     } else {
-      ArgTraits<R>::to_ptr(self->fn(obj, ArgTraits<bare_t<A>>::from_ptr(args[I])...), r_ret);
+      ArgTraits<bare_t<R>>::to_ptr(self->invoke(obj, ArgTraits<bare_t<A>>::from_ptr(args[I])...), r_ret);
     }
   }
 
@@ -145,12 +192,14 @@ struct MethodRecord final : MethodRecordBase {
     if (bad >= 0) {
       constexpr GDExtensionVariantType kExpected[] = {ArgTraits<bare_t<A>>::kType..., GDEXTENSION_VARIANT_TYPE_NIL};
       set_call_error(r_error, GDEXTENSION_CALL_ERROR_INVALID_ARGUMENT, bad, int32_t(kExpected[bad]));
+      // Object::set() drops a failed setter call without a word: say which call and argument.
+      self->report_bad_argument(bad, kExpected[bad], gde.variant_get_type(args[bad]));
       return;
     }
     if constexpr (std::is_void_v<R>) {
-      self->fn(obj, std::move(std::get<I>(values))...);
+      self->invoke(obj, std::move(std::get<I>(values))...);
     } else {
-      Variant::assign_to(r_ret, Variant(self->fn(obj, std::move(std::get<I>(values))...)));
+      Variant::assign_to(r_ret, Variant(self->invoke(obj, std::move(std::get<I>(values))...)));
     }
   }
 
@@ -178,6 +227,37 @@ struct MethodRecord final : MethodRecordBase {
   }
 };
 
+template <class T, class = void>
+struct has_validate_property : std::false_type {};
+template <class T>
+struct has_validate_property<T, std::void_t<decltype(std::declval<T&>().validate_property(
+                                    std::declval<GDExtensionPropertyInfo&>()))>> : std::true_type {};
+template <class T, class = void>
+struct has_notification : std::false_type {};
+template <class T>
+struct has_notification<T, std::void_t<decltype(std::declval<T&>().notification(int32_t(0)))>> : std::true_type {};
+
+// A virtual override bound to a member function: arguments arrive in ptrcall encoding.
+template <class C, bool Const, class R, class... A>
+struct VirtualMethod final : VirtualRecord {
+  using Fn = std::conditional_t<Const, R (C::*)(A...) const, R (C::*)(A...)>;
+  VirtualMethod(const char* n, uint32_t h, Fn f) : VirtualRecord(n, h), fn(f) {}
+  Fn fn;
+
+  template <size_t... I>
+  void call_impl(C& obj, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret,
+                 std::index_sequence<I...>) const {
+    if constexpr (std::is_void_v<R>) {
+      (obj.*fn)(ArgTraits<bare_t<A>>::from_ptr(args[I])...);
+    } else {
+      ArgTraits<bare_t<R>>::to_ptr((obj.*fn)(ArgTraits<bare_t<A>>::from_ptr(args[I])...), r_ret);
+    }
+  }
+  void call(void* instance, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret) const override {
+    call_impl(*static_cast<C*>(instance), args, r_ret, std::index_sequence_for<A...>{});
+  }
+};
+
 }  // namespace detail
 
 // Registers class C (constructible as C(ObjectPtr owner)) deriving from an engine class.
@@ -187,15 +267,15 @@ class ClassBuilder {
   ClassBuilder(ClassRecord& record) : record_(record) {}
 
   // C::validate_property(GDExtensionPropertyInfo&) and C::notification(int32_t what) are
-  // installed when the flags say C has them.
-  void register_class(bool has_validate_property, bool has_notification = false) {
+  // installed when C declares them.
+  void register_class() {
     GDExtensionClassCreationInfo5 info{};
     info.is_virtual = 0;
     info.is_abstract = 0;
     info.is_exposed = 1;
     info.is_runtime = 0;
-    info.validate_property_func = has_validate_property ? &validate_property : nullptr;
-    info.notification_func = has_notification ? &notification : nullptr;
+    if constexpr (detail::has_validate_property<C>::value) info.validate_property_func = &validate_property;
+    if constexpr (detail::has_notification<C>::value) info.notification_func = &notification;
     info.create_instance_func = &create_instance;
     info.free_instance_func = &free_instance;
     info.get_virtual_call_data_func = &get_virtual_call_data;
@@ -204,13 +284,28 @@ class ClassBuilder {
     gde.classdb_register_extension_class5(gde.library, record_.name.ptr(), record_.parent.ptr(), &info);
   }
 
-  // Binds `fn` (a plain function taking C& first; use a lambda without captures) as `name`.
+  // Binds the member function `fn` as `name`, with named arguments (like godot-cpp's
+  // ClassDB::bind_method(D_METHOD("set_x", "x"), &C::set_x)); types are deduced from `fn`.
   template <class R, class... A>
-  void method(const char* name, R (*fn)(C&, A...), std::initializer_list<const char*> arg_names,
-              bool is_const = false) {
+  void method(const char* name, R (C::*fn)(A...), std::initializer_list<const char*> arg_names = {},
+              ReturnInfo ret = {}) {
+    add_method<R, A...>(name, std::make_unique<detail::MethodRecord<C, R, A...>>(fn), arg_names, false, ret);
+  }
+  template <class R, class... A>
+  void method(const char* name, R (C::*fn)(A...) const, std::initializer_list<const char*> arg_names = {},
+              ReturnInfo ret = {}) {
+    add_method<R, A...>(name, std::make_unique<detail::MethodRecord<C, R, A...>>(fn), arg_names, true, ret);
+  }
+
+ private:
+  template <class R, class... A>
+  void add_method(const char* name, std::unique_ptr<detail::MethodRecord<C, R, A...>> record,
+                  std::initializer_list<const char*> arg_names, bool is_const, ReturnInfo ret) {
     static_assert(sizeof...(A) < 8, "too many arguments");
-    auto record = std::make_unique<detail::MethodRecord<C, R, A...>>(fn);
     StringName method_name(name);
+    record->class_name = String(record_.name).utf8();
+    record->method_name = name;
+    for (const char* n : arg_names) record->arg_names.emplace_back(n);
     std::vector<StringName> names;
     std::vector<String> hints;
     StringName empty_class;
@@ -226,8 +321,15 @@ class ClassBuilder {
       args_meta[i] = ArgTraits<detail::bare_t<A>>::kMeta, ++i),
      ...);
     StringName ret_name;
+    StringName ret_class(ret.return_enum ? ret.return_enum : "");
     GDExtensionPropertyInfo ret_info{};
-    init_return_info(ret_info, ret_name, empty_class, hints.back());
+    init_return_info(ret_info, ret_name, ret.return_enum ? ret_class : empty_class, hints.back());
+    if (ret.return_enum) ret_info.usage |= uint32_t(gen::PropertyUsageFlags::PROPERTY_USAGE_CLASS_IS_ENUM);
+    if (ret.return_array_of) {
+      hints.back() = String(ret.return_array_of);
+      ret_info.hint = uint32_t(gen::PropertyHint::PROPERTY_HINT_ARRAY_TYPE);
+      ret_info.hint_string = hints.back().ptr();
+    }
 
     GDExtensionClassMethodInfo mi{};
     mi.name = method_name.ptr();
@@ -237,9 +339,9 @@ class ClassBuilder {
     mi.method_flags = GDEXTENSION_METHOD_FLAG_NORMAL | (is_const ? GDEXTENSION_METHOD_FLAG_CONST : 0);
     if constexpr (!std::is_void_v<R>) {
       mi.has_return_value = 1;
-      ret_info.type = ArgTraits<R>::kType;
+      ret_info.type = ArgTraits<detail::bare_t<R>>::kType;
       mi.return_value_info = &ret_info;
-      mi.return_value_metadata = ArgTraits<R>::kMeta;
+      mi.return_value_metadata = ArgTraits<detail::bare_t<R>>::kMeta;
     }
     mi.argument_count = uint32_t(sizeof...(A));
     mi.arguments_info = args_info;
@@ -247,6 +349,8 @@ class ClassBuilder {
     gde.classdb_register_extension_class_method(gde.library, record_.name.ptr(), &mi);
     record_.methods.push_back(std::move(record));
   }
+
+ public:
 
   void property(const PropertySpec& spec, const char* setter, const char* getter) {
     StringName name(spec.name), class_name(spec.class_name), set(setter), get(getter);
@@ -256,15 +360,32 @@ class ClassBuilder {
     gde.classdb_register_extension_class_property(gde.library, record_.name.ptr(), &info, set.ptr(), get.ptr());
   }
 
+  // Properties registered after this line whose names start with `prefix` show under `name`.
+  void group(const char* name, const char* prefix) {
+    String n(name), p(prefix);
+    gde.classdb_register_extension_class_property_group(gde.library, record_.name.ptr(), n.ptr(), p.ptr());
+  }
+
+  // A signal without arguments.
+  void signal(const char* name) {
+    StringName n(name);
+    gde.classdb_register_extension_class_signal(gde.library, record_.name.ptr(), n.ptr(), nullptr, 0);
+  }
+
   void constant(const char* enum_name, const char* name, int64_t value) {
     StringName e(enum_name), n(name);
     gde.classdb_register_extension_class_integer_constant(gde.library, record_.name.ptr(), e.ptr(), n.ptr(), value, 0);
   }
 
-  // A virtual of the parent class that C overrides; `hash` comes from extension_api.json.
-  void virtual_override(const char* name, uint32_t hash,
-                        void (*thunk)(void*, const GDExtensionConstTypePtr*, GDExtensionTypePtr)) {
-    record_.virtuals.push_back(std::make_unique<VirtualRecord>(VirtualRecord{StringName(name), hash, thunk}));
+  // A virtual of the engine parent that C overrides with the member function `fn`; `hash` comes
+  // from extension_api.json (gen::kVirtualHash_*), checked when the engine asks for it.
+  template <class R, class... A>
+  void virtual_method(const char* name, uint32_t hash, R (C::*fn)(A...)) {
+    record_.virtuals.push_back(std::make_unique<detail::VirtualMethod<C, false, R, A...>>(name, hash, fn));
+  }
+  template <class R, class... A>
+  void virtual_method(const char* name, uint32_t hash, R (C::*fn)(A...) const) {
+    record_.virtuals.push_back(std::make_unique<detail::VirtualMethod<C, true, R, A...>>(name, hash, fn));
   }
 
  private:
@@ -284,6 +405,7 @@ class ClassBuilder {
     if (object == nullptr) return nullptr;
     C* self = new C(object);
     gde.object_set_instance(object, record->name.ptr(), self);
+    gde.object_set_instance_binding(object, gde.library, self, &kInstanceBindingCallbacks);
     // classdb_construct_object2 does not send POSTINITIALIZE: the extension must, when asked.
     if (notify_postinitialize) call(gen::Method::Object_notification, object, int64_t(0), false);
     return object;
@@ -323,7 +445,7 @@ class ClassBuilder {
   static void call_virtual_with_data(GDExtensionClassInstancePtr instance, GDExtensionConstStringNamePtr,
                                      void* data, const GDExtensionConstTypePtr* args, GDExtensionTypePtr r_ret) {
     try {
-      static_cast<VirtualRecord*>(data)->thunk(instance, args, r_ret);
+      static_cast<const VirtualRecord*>(data)->call(instance, args, r_ret);
     } catch (...) {
       IKCHAIN_PRINT_ERROR("IKChain: unexpected C++ exception in a virtual method");
     }

@@ -1,4 +1,4 @@
-#include "binding/engine.hpp"
+#include "binding/classes.hpp"
 
 #include <cstdio>
 
@@ -24,9 +24,8 @@ bool init_method_binds() {
       ok = false;
     }
   }
-  const char* tag_names[int(ClassTag::Count)] = {"Node3D", "Skeleton3D"};
   for (int i = 0; i < int(ClassTag::Count); ++i) {
-    const StringName cls(tag_names[i]);
+    const StringName cls(kClassTagNames[i]);
     g_tags[i] = gde.classdb_get_class_tag(cls.ptr());
     ok = ok && g_tags[i] != nullptr;
   }

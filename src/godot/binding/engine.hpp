@@ -21,15 +21,10 @@ namespace ikchain::gdx {
 bool init_method_binds();
 GDExtensionMethodBindPtr method_bind(gen::Method m);
 
-// Class tags for object_cast_to (resolved with the method binds).
-enum class ClassTag : int { Node3D, Skeleton3D, Count };
+// Class tags for object_cast_to (resolved with the method binds); the enum is generated with the
+// typed class wrappers (engine_classes.gen.hpp, included through binding/classes.hpp).
+enum class ClassTag : int;
 void* class_tag(ClassTag tag);
-
-// An engine object pointer; null when absent.
-template <ClassTag Tag>
-inline ObjectPtr cast_to(ObjectPtr object) {
-  return object == nullptr ? nullptr : gde.object_cast_to(object, class_tag(Tag));
-}
 
 namespace detail {
 
@@ -94,7 +89,8 @@ R call_impl(GDExtensionMethodBindPtr bind, ObjectPtr object, std::index_sequence
 }  // namespace detail
 
 // call<R>(Method, object, args...): R is void, a scalar (bool, an integer, double), ObjectPtr or
-// one of our builtins. The method's signature is the one recorded in extension_api.json.
+// one of our builtins. The method's signature is the one recorded in extension_api.json. Only the
+// generated wrappers (engine_classes.gen.hpp) call this: code uses the typed member functions.
 template <class R = void, class... A>
 R call(gen::Method m, ObjectPtr object, const A&... args) {
   return detail::call_impl<R>(method_bind(m), object, std::index_sequence_for<A...>{}, args...);

@@ -33,6 +33,15 @@ namespace ikchain::gdx {
   X(packed_string_array_operator_index, "packed_string_array_operator_index",                            \
     GDExtensionInterfacePackedStringArrayOperatorIndex)                                                  \
   X(dictionary_operator_index, "dictionary_operator_index", GDExtensionInterfaceDictionaryOperatorIndex) \
+  X(array_operator_index_const, "array_operator_index_const", GDExtensionInterfaceArrayOperatorIndexConst) \
+  X(packed_int32_array_operator_index_const, "packed_int32_array_operator_index_const",                  \
+    GDExtensionInterfacePackedInt32ArrayOperatorIndexConst)                                              \
+  X(object_get_instance_binding, "object_get_instance_binding", GDExtensionInterfaceObjectGetInstanceBinding) \
+  X(classdb_register_extension_class_property_group, "classdb_register_extension_class_property_group",  \
+    GDExtensionInterfaceClassdbRegisterExtensionClassPropertyGroup)                                      \
+  X(variant_get_type_name, "variant_get_type_name", GDExtensionInterfaceVariantGetTypeName)              \
+  X(classdb_register_extension_class_signal, "classdb_register_extension_class_signal",                  \
+    GDExtensionInterfaceClassdbRegisterExtensionClassSignal)                                             \
   X(object_method_bind_ptrcall, "object_method_bind_ptrcall", GDExtensionInterfaceObjectMethodBindPtrcall) \
   X(object_set_instance, "object_set_instance", GDExtensionInterfaceObjectSetInstance)                   \
   X(object_set_instance_binding, "object_set_instance_binding", GDExtensionInterfaceObjectSetInstanceBinding) \

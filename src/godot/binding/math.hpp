@@ -1,4 +1,4 @@
-// Godot's math builtins as plain layouts (real_t = float in this engine build) and their
+// Godot's math builtins as plain layouts (real_t as the engine was built) and their
 // conversions to the core's double-precision GLM types. Pure: no engine needed, unit-tested in
 // tests/binding/math_test.cpp.
 //
@@ -13,9 +13,12 @@
 #include <cmath>
 #include <type_traits>
 
+#include "engine_api.gen.hpp"
+
 namespace ikchain::gdx {
 
-using real_t = float;
+// The engine's build configuration decides (extension_api.json's "precision"), not this file.
+using real_t = std::conditional_t<gen::kRealIsDouble, double, float>;
 
 struct Vector3 {
   real_t x = 0, y = 0, z = 0;

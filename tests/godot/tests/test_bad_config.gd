@@ -1,6 +1,7 @@
-# Bad configurations: each must give a configuration warning naming the problem, print exactly one
-# ERROR line naming the property (over 5 frames: once per distinct problem, not once per frame),
-# leave every bone pose unchanged and finite, report a not-usable result, and never crash.
+# Bad configurations: each must give a configuration warning naming the problem and print NO error
+# (like Godot's own modifiers: an IKChain not configured yet shows the warning triangle, it does not
+# fill the output with ERROR lines; any ERROR line fails the case), leave every bone pose unchanged
+# and finite, report a not-usable result, and never crash.
 # Finally, fixing the property must make the chain work without a restart.
 #
 # The arm is the 3-joint arm of lib/arm.gd, posed with non-rest joint rotations so that "unchanged"
@@ -97,7 +98,8 @@ func warnings_of(node: Node) -> Variant:
 
 
 ## Builds a valid 3-joint rig, breaks it with `breaker`, runs FRAMES frames and checks the outcome.
-## error_regex / warning_regex: what the ERROR line / a configuration warning must mention.
+## error_regex names what the problem concerns (kept for readability); warning_regex is what a
+## configuration warning must mention.
 func _bad(error_regex: String, warning_regex: String, breaker: Callable) -> void:
 	var rng := RandomNumberGenerator.new()
 	rng.seed = 404
@@ -115,7 +117,6 @@ func _bad(error_regex: String, warning_regex: String, breaker: Callable) -> void
 	skel.skeleton_updated.connect(grab)
 	ik.modification_processed.connect(grab)
 
-	expect_error(error_regex, 1)
 	Rig.add_to(case_root, rig)
 	await frames(FRAMES)
 
@@ -159,7 +160,6 @@ func test_recovers_when_fixed() -> void:
 	var skel: Skeleton3D = rig["skeleton"]
 	var ik: IKChain = rig["ik"]
 	ik.root_bone = "no_such_bone"
-	expect_error("root_bone", 1)
 	Rig.add_to(case_root, rig)
 	await frames(3)
 	var broken = warnings_of(ik)

@@ -24,7 +24,9 @@ func test_solver_constants() -> void:
 	check_eq(IKChain.SOLVER_DLS, 3, "SOLVER_DLS")
 	check_eq(IKChain.SOLVER_BFGS, 4, "SOLVER_BFGS")
 	check_eq(IKChain.SOLVER_FABRIK, 5, "SOLVER_FABRIK")
-	for c in ["SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS", "SOLVER_BFGS", "SOLVER_FABRIK"]:
+	check_eq(IKChain.SOLVER_AUTO, 6, "SOLVER_AUTO")
+	for c in ["SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS", "SOLVER_BFGS", "SOLVER_FABRIK",
+			"SOLVER_AUTO"]:
 		check(ClassDB.class_has_integer_constant("IKChain", c), "ClassDB has constant " + c)
 
 
@@ -33,7 +35,7 @@ func test_property_defaults() -> void:
 	check_eq(ik.root_bone, "", "root_bone default")
 	check_eq(ik.tip_bone, "", "tip_bone default")
 	check_eq(ik.target, NodePath(), "target default")
-	check_eq(ik.solver, IKChain.SOLVER_DLS, "solver default")
+	check_eq(ik.solver, IKChain.SOLVER_AUTO, "solver default")
 	check_eq(ik.max_iterations, 64, "max_iterations default")
 	check_near(ik.tolerance, 0.0001, 1e-9, "tolerance default")
 	check_eq(ik.deterministic, false, "deterministic default")
@@ -121,13 +123,13 @@ func test_out_of_range_properties_are_clamped_with_an_error() -> void:
 	expect_error("max_iterations must be in 1\\.\\.1000, got 5000; using 1000", 1)
 	ik.set("max_iterations", 5000)
 	check_eq(ik.max_iterations, 1000, "max_iterations = 5000 (Variant path)")
-	expect_error("tolerance must be in \\[1e-06, 1\\] m, got -1; using 1e-06", 1)
+	expect_error("tolerance must be in \\[1e-06, 1\\] \\(skeleton units\\), got -1; using 1e-06", 1)
 	ik.tolerance = -1.0
 	check_eq(ik.tolerance, 1e-6, "tolerance = -1")
-	expect_error("tolerance must be in \\[1e-06, 1\\] m, got nan; using 1e-06", 1)
+	expect_error("tolerance must be in \\[1e-06, 1\\] \\(skeleton units\\), got nan; using 1e-06", 1)
 	ik.tolerance = NAN
 	check_eq(ik.tolerance, 1e-6, "tolerance = NAN keeps the last value")
-	expect_error("solver must be in 0\\.\\.5 .*got 9; using 5", 1)
+	expect_error("solver must be in 0\\.\\.6 .*got 9; using 6", 1)
 	ik.solver = 9
-	check_eq(ik.solver, IKChain.SOLVER_FABRIK, "solver = 9")
+	check_eq(ik.solver, IKChain.SOLVER_AUTO, "solver = 9")
 	ik.free()

@@ -95,6 +95,6 @@ func test_custom_values_survive() -> void:
 func test_defaults_survive() -> void:
 	var inst := _reload_and_check(_make_scene(false), {
 		"root_bone": "", "tip_bone": "", "target": NodePath(),
-		"solver": IKChain.SOLVER_DLS, "max_iterations": 64, "tolerance": 0.0001, "deterministic": false})
+		"solver": IKChain.SOLVER_AUTO, "max_iterations": 64, "tolerance": 0.0001, "deterministic": false})
 	if inst != null:
 		inst.free()

@@ -1,0 +1,296 @@
+// A small typed wrapper over the WebAssembly core (src/wasm/ in the repository root). Every solve,
+// forward-kinematics pass and benchmark case runs in the core; this file only shapes arguments
+// and results for TypeScript.
+import createIKChain from './wasm/ikchain_wasm.mjs';
+import type { IKChainModule, RawWebChain } from './wasm/ikchain_wasm.mjs';
+
+export type Vec3 = readonly [number, number, number];
+export type Quat = readonly [number, number, number, number]; // x, y, z, w
+
+// Codes as in src/core/options.hpp (SolverKind).
+export enum SolverKind {
+  TwoBone = 0,
+  CCD = 1,
+  JacobianPinv = 2,
+  DLS = 3,
+  BFGS = 4,
+  FABRIK = 5,
+}
+
+export const SOLVERS: readonly { kind: SolverKind; id: string; label: string }[] = [
+  { kind: SolverKind.DLS, id: 'dls', label: 'Damped least squares' },
+  { kind: SolverKind.BFGS, id: 'bfgs', label: 'BFGS' },
+  { kind: SolverKind.JacobianPinv, id: 'jacobian_pinv', label: 'Jacobian pseudo-inverse' },
+  { kind: SolverKind.CCD, id: 'ccd', label: 'CCD' },
+  { kind: SolverKind.FABRIK, id: 'fabrik', label: 'FABRIK' },
+  { kind: SolverKind.TwoBone, id: 'two_bone', label: 'Two bone (2 joints)' },
+];
+
+export type TerminationReason = 'converged' | 'max_iterations' | 'stalled' | 'unreachable' | 'invalid_input';
+// Codes as in src/core/result.hpp (TerminationReason).
+export const REASONS: readonly TerminationReason[] = [
+  'converged', 'max_iterations', 'stalled', 'unreachable', 'invalid_input',
+];
+
+export interface SolveResult {
+  reason: TerminationReason;
+  usable: boolean;
+  iterations: number;
+  initialError: number;
+  finalError: number;
+  finalPositionError: number;
+  finalOrientationError: number;
+  elapsedUs: number; // measured inside the core
+  message: string; // why, for invalid_input
+}
+
+export type JointSpec =
+  | { type: 'hinge'; offset: Vec3; axis: Vec3; limits?: { min: number; max: number } }
+  | { type: 'ball'; offset: Vec3; limits?: { cone: number; twistMin: number; twistMax: number } };
+
+// The demo arm: n joints of one type, links along +Y, total reach `reach`. Hinges: the first turns
+// about Y (a base yaw), then alternately about Z and X. Limits: hinges ±100° (the yaw ±170°),
+// balls a 70° cone and ±30° twist.
+export interface ArmSpec {
+  joints: number;
+  jointType: 'hinge' | 'ball';
+  limits: boolean;
+  reach?: number;
+}
+
+export function armJoints(spec: ArmSpec): { joints: JointSpec[]; tip: Vec3 } {
+  if (!Number.isInteger(spec.joints) || spec.joints < 1 || spec.joints > 200)
+    throw new IKError(`joints must be an integer in 1..200, got ${spec.joints}`);
+  const link = (spec.reach ?? 4) / spec.joints;
+  const deg = Math.PI / 180;
+  const joints: JointSpec[] = [];
+  for (let i = 0; i < spec.joints; ++i) {
+    const offset: Vec3 = i === 0 ? [0, 0, 0] : [0, link, 0];
+    if (spec.jointType === 'ball') {
+      joints.push({ type: 'ball', offset, limits: spec.limits ? { cone: 70 * deg, twistMin: -30 * deg, twistMax: 30 * deg } : undefined });
+    } else {
+      const axis: Vec3 = i === 0 ? [0, 1, 0] : i % 2 === 1 ? [0, 0, 1] : [1, 0, 0];
+      const range = (i === 0 ? 170 : 100) * deg;
+      joints.push({ type: 'hinge', offset, axis, limits: spec.limits ? { min: -range, max: range } : undefined });
+    }
+  }
+  return { joints, tip: [0, link, 0] };
+}
+
+export type Goal =
+  | { kind: 'position'; target: Vec3; effector?: number; weight?: number }
+  | { kind: 'orientation'; quaternion: Quat; effector?: number; weight?: number }
+  | { kind: 'aim'; axis: Vec3; direction: Vec3; effector?: number; weight?: number };
+
+export interface Options {
+  maxIterations?: number;
+  positionTolerance?: number; // m
+  orientationTolerance?: number; // rad
+  warmStart?: boolean; // start from the current pose (true) or the rest pose
+  maxStepAngle?: number; // rad per iteration and joint, 0 = no cap
+}
+
+export interface JointFrame {
+  position: [number, number, number];
+  quaternion: [number, number, number, number]; // x, y, z, w
+}
+
+export interface Frames {
+  joints: JointFrame[];
+  tip: [number, number, number];
+}
+
+export class IKError extends Error {}
+
+function check(message: string, what: string): void {
+  if (message !== '') throw new IKError(`${what}: ${message}`);
+}
+
+export class Chain {
+  private readonly raw: RawWebChain;
+  private opts: Required<Options> = {
+    maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, maxStepAngle: 0,
+  };
+
+  // Use IKCore.createChain / createBenchChain.
+  constructor(raw: RawWebChain) {
+    this.raw = raw;
+    this.applyOptions();
+  }
+
+  get jointCount(): number { return this.raw.jointCount(); }
+  get dofCount(): number { return this.raw.dofCount(); }
+  get totalLength(): number { return this.raw.totalLength(); }
+  get options(): Readonly<Required<Options>> { return this.opts; }
+
+  // Replaces every goal. Throws IKError naming the goal when one is refused.
+  setGoals(goals: readonly Goal[]): void {
+    this.raw.clearGoals();
+    goals.forEach((g, i) => {
+      const effector = g.effector ?? 0;
+      const weight = g.weight ?? 1;
+      let message: string;
+      if (g.kind === 'position') {
+        message = this.raw.addPositionGoal(g.target[0], g.target[1], g.target[2], effector, weight);
+      } else if (g.kind === 'orientation') {
+        const q = g.quaternion;
+        message = this.raw.addOrientationGoal(q[0], q[1], q[2], q[3], effector, weight);
+      } else {
+        message = this.raw.addAimGoal(g.axis[0], g.axis[1], g.axis[2], g.direction[0], g.direction[1],
+                                      g.direction[2], effector, weight);
+      }
+      check(message, `goal ${i}`);
+    });
+  }
+
+  get goalCount(): number { return this.raw.goalCount(); }
+
+  // Per-frame updates that allocate nothing in the core. Throw when goal `index` is of another kind.
+  setGoalPosition(index: number, p: Vec3): void {
+    if (!this.raw.setGoalPosition(index, p[0], p[1], p[2]))
+      throw new IKError(`setGoalPosition: goal ${index} is not a position goal`);
+  }
+  setGoalOrientation(index: number, q: Quat): void {
+    if (!this.raw.setGoalOrientation(index, q[0], q[1], q[2], q[3]))
+      throw new IKError(`setGoalOrientation: goal ${index} is not an orientation goal`);
+  }
+  setAimDirection(index: number, d: Vec3): void {
+    if (!this.raw.setGoalAimDirection(index, d[0], d[1], d[2]))
+      throw new IKError(`setAimDirection: goal ${index} is not an aim goal`);
+  }
+
+  setOptions(options: Options): void {
+    this.opts = { ...this.opts, ...options };
+    this.applyOptions();
+  }
+
+  private applyOptions(): void {
+    const o = this.opts;
+    this.raw.setMaxIterations(o.maxIterations);
+    this.raw.setTolerances(o.positionTolerance, o.orientationTolerance);
+    this.raw.setWarmStart(o.warmStart);
+    this.raw.setMaxStepAngle(o.maxStepAngle);
+  }
+
+  // One solve; the core validates everything and names a bad field in result.message.
+  solve(kind: SolverKind): SolveResult {
+    this.raw.solve(kind);
+    return this.result();
+  }
+
+  // The same solve without building a result object (timing loops); returns the reason.
+  solveFast(kind: SolverKind): TerminationReason {
+    return REASONS[this.raw.solve(kind)] ?? 'invalid_input';
+  }
+  get lastIterations(): number { return this.raw.lastIterations(); }
+  get lastFinalError(): number { return this.raw.lastFinalError(); }
+
+  result(): SolveResult {
+    const r = this.raw.result();
+    return {
+      reason: r.reason as TerminationReason,
+      usable: r.usable,
+      iterations: r.iterations,
+      initialError: r.initialError,
+      finalError: r.finalError,
+      finalPositionError: r.finalPositionError,
+      finalOrientationError: r.finalOrientationError,
+      elapsedUs: r.elapsedUs,
+      message: r.message,
+    };
+  }
+
+  params(): Float64Array { return this.raw.params(); }
+  setParams(values: ArrayLike<number>): void { check(this.raw.setParams(Array.from(values)), 'setParams'); }
+  resetPose(): void { this.raw.resetPose(); }
+
+  // Joint frames of the current pose (forward kinematics in the core), base space.
+  frames(): Frames {
+    const f = this.raw.frames();
+    const n = this.raw.jointCount();
+    const joints: JointFrame[] = [];
+    for (let i = 0; i < n; ++i) {
+      const o = 7 * i;
+      joints.push({ position: [f[o], f[o + 1], f[o + 2]], quaternion: [f[o + 3], f[o + 4], f[o + 5], f[o + 6]] });
+    }
+    return { joints, tip: [f[7 * n], f[7 * n + 1], f[7 * n + 2]] };
+  }
+
+  // Frees the core object (embind objects are not garbage-collected).
+  dispose(): void { this.raw.delete(); }
+}
+
+export interface ConvergenceTrace {
+  errors: number[]; // errors[k]: tip distance after a budget of k iterations (k = 0: the rest pose)
+  stopped: string;
+  tolerance: number;
+}
+
+export interface PrecisionRun {
+  distance: number;
+  reason: string;
+  iterations: number;
+}
+
+export class IKCore {
+  private readonly module: IKChainModule;
+  constructor(module: IKChainModule) { this.module = module; }
+
+  createChain(joints: readonly JointSpec[], tip: Vec3): Chain {
+    const raw = new this.module.WebChain();
+    for (const j of joints) {
+      if (j.type === 'hinge') {
+        raw.addHinge(j.offset[0], j.offset[1], j.offset[2], j.axis[0], j.axis[1], j.axis[2], !!j.limits,
+                     j.limits?.min ?? 0, j.limits?.max ?? 0);
+      } else {
+        raw.addBall(j.offset[0], j.offset[1], j.offset[2], !!j.limits, j.limits?.cone ?? 0,
+                    j.limits?.twistMin ?? 0, j.limits?.twistMax ?? 0);
+      }
+    }
+    raw.setTip(tip[0], tip[1], tip[2]);
+    const message = raw.build();
+    if (message !== '') {
+      raw.delete();
+      throw new IKError(`chain: ${message}`);
+    }
+    return new Chain(raw);
+  }
+
+  createArm(spec: ArmSpec): Chain {
+    const { joints, tip } = armJoints(spec);
+    return this.createChain(joints, tip);
+  }
+
+  // The benchmark's chain (bench/core_bench.cpp): n hinges alternating z/y, unit links.
+  createBenchChain(joints: number, planar = false): Chain {
+    const raw = new this.module.WebChain();
+    const message = raw.buildBenchChain(joints, planar);
+    if (message !== '') {
+      raw.delete();
+      throw new IKError(`bench chain: ${message}`);
+    }
+    return new Chain(raw);
+  }
+
+  // The benchmark's budgets and seeded reachable targets (the bench seeds an n-joint cell with 1000 + n).
+  benchMaxIterations(kind: SolverKind): number { return this.module.benchMaxIterations(kind); }
+  benchTargets(joints: number, count: number, seed = 1000 + joints): Vec3[] {
+    const t = this.module.benchTargets(joints, count, seed);
+    const out: Vec3[] = [];
+    for (let i = 0; i + 2 < t.length; i += 3) out.push([t[i], t[i + 1], t[i + 2]]);
+    return out;
+  }
+  convergenceTrace(kind: SolverKind): ConvergenceTrace {
+    const t = this.module.convergenceTrace(kind);
+    return { errors: Array.from(t.errors), stopped: t.stopped, tolerance: t.tolerance };
+  }
+  precisionRun(kind: SolverKind, planar: boolean): PrecisionRun {
+    return this.module.precisionRun(kind, planar);
+  }
+}
+
+let loading: Promise<IKCore> | undefined;
+export function loadIKCore(): Promise<IKCore> {
+  loading ??= createIKChain().then((m) => new IKCore(m));
+  return loading;
+}

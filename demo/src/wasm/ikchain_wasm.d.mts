@@ -1,0 +1,62 @@
+// Types of the embind module built by `scons web` (src/wasm/bindings.cpp). The page uses the
+// typed wrapper in ../ikchain.ts, not these directly.
+export interface RawSolveResult {
+  reason: string;
+  usable: boolean;
+  iterations: number;
+  initialError: number;
+  finalError: number;
+  initialPositionError: number;
+  finalPositionError: number;
+  initialOrientationError: number;
+  finalOrientationError: number;
+  elapsedUs: number;
+  message: string;
+}
+
+export interface RawWebChain {
+  clearJoints(): void;
+  addHinge(ox: number, oy: number, oz: number, ax: number, ay: number, az: number, limited: boolean,
+           min: number, max: number): void;
+  addBall(ox: number, oy: number, oz: number, limited: boolean, cone: number, twistMin: number,
+          twistMax: number): void;
+  setTip(x: number, y: number, z: number): void;
+  build(): string;
+  buildBenchChain(joints: number, planar: boolean): string;
+  jointCount(): number;
+  dofCount(): number;
+  totalLength(): number;
+  clearGoals(): void;
+  goalCount(): number;
+  addPositionGoal(x: number, y: number, z: number, effector: number, weight: number): string;
+  addOrientationGoal(qx: number, qy: number, qz: number, qw: number, effector: number, weight: number): string;
+  addAimGoal(ax: number, ay: number, az: number, dx: number, dy: number, dz: number, effector: number,
+             weight: number): string;
+  setGoalPosition(index: number, x: number, y: number, z: number): boolean;
+  setGoalOrientation(index: number, qx: number, qy: number, qz: number, qw: number): boolean;
+  setGoalAimDirection(index: number, x: number, y: number, z: number): boolean;
+  setMaxIterations(n: number): void;
+  setTolerances(position: number, orientation: number): void;
+  setWarmStart(on: boolean): void;
+  setMaxStepAngle(radians: number): void;
+  solve(kind: number): number;
+  resetPose(): void;
+  result(): RawSolveResult;
+  lastIterations(): number;
+  lastFinalError(): number;
+  params(): Float64Array;
+  setParams(values: ArrayLike<number>): string;
+  frames(): Float64Array;
+  delete(): void;
+}
+
+export interface IKChainModule {
+  WebChain: new () => RawWebChain;
+  benchMaxIterations(kind: number): number;
+  benchTargets(joints: number, count: number, seed: number): Float64Array;
+  convergenceTrace(kind: number): { errors: Float64Array; stopped: string; tolerance: number };
+  precisionRun(kind: number, planar: boolean): { distance: number; reason: string; iterations: number };
+}
+
+declare function createIKChain(options?: Record<string, unknown>): Promise<IKChainModule>;
+export default createIKChain;

@@ -1,0 +1,164 @@
+#include "ik_chain_joint.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include "binding/math.hpp"
+#include "property_report.hpp"
+
+namespace ikchain::godot {
+
+namespace hint = gdx::gen::PropertyHint;
+
+namespace {
+std::atomic<uint64_t> g_generation{1};
+constexpr double kPi = 3.14159265358979323846;
+constexpr const char* kClass = "IKChainJoint";
+
+// Keeps an angle finite and within [lo, hi], reporting a clamp.
+double clamp_angle(const char* property, const char* range, double radians, double lo, double hi, double fallback) {
+  if (std::isnan(radians)) {
+    report_clamped(kClass, property, range, radians, fallback);
+    return fallback;
+  }
+  const double used = std::clamp(radians, lo, hi);
+  if (used != radians) report_clamped(kClass, property, range, radians, used);
+  return used;
+}
+}  // namespace
+
+uint64_t IKChainJoint::generation() { return g_generation.load(std::memory_order_relaxed); }
+void IKChainJoint::bump_generation() { g_generation.fetch_add(1, std::memory_order_relaxed); }
+
+void IKChainJoint::register_class(gdx::ClassRecord& record) {
+  gdx::ClassBuilder<IKChainJoint> b(record);
+  b.register_class();
+  b.method("set_bone_name", &IKChainJoint::set_bone_name, {"bone_name"});
+  b.method("get_bone_name", &IKChainJoint::get_bone_name);
+  b.method("set_type", &IKChainJoint::set_type, {"type"});
+  b.method("get_type", &IKChainJoint::get_type, {}, {"IKChainJoint.JointType"});
+  b.method("set_hinge_axis", &IKChainJoint::set_hinge_axis, {"axis"});
+  b.method("get_hinge_axis", &IKChainJoint::get_hinge_axis);
+  b.method("set_hinge_limit_enabled", &IKChainJoint::set_hinge_limit_enabled, {"enabled"});
+  b.method("is_hinge_limit_enabled", &IKChainJoint::is_hinge_limit_enabled);
+  b.method("set_hinge_min", &IKChainJoint::set_hinge_min, {"radians"});
+  b.method("get_hinge_min", &IKChainJoint::get_hinge_min);
+  b.method("set_hinge_max", &IKChainJoint::set_hinge_max, {"radians"});
+  b.method("get_hinge_max", &IKChainJoint::get_hinge_max);
+  b.method("set_cone_limit_enabled", &IKChainJoint::set_cone_limit_enabled, {"enabled"});
+  b.method("is_cone_limit_enabled", &IKChainJoint::is_cone_limit_enabled);
+  b.method("set_cone_angle", &IKChainJoint::set_cone_angle, {"radians"});
+  b.method("get_cone_angle", &IKChainJoint::get_cone_angle);
+  b.method("set_twist_limit_enabled", &IKChainJoint::set_twist_limit_enabled, {"enabled"});
+  b.method("is_twist_limit_enabled", &IKChainJoint::is_twist_limit_enabled);
+  b.method("set_twist_min", &IKChainJoint::set_twist_min, {"radians"});
+  b.method("get_twist_min", &IKChainJoint::get_twist_min);
+  b.method("set_twist_max", &IKChainJoint::set_twist_max, {"radians"});
+  b.method("get_twist_max", &IKChainJoint::get_twist_max);
+  b.method("set_twist_axis", &IKChainJoint::set_twist_axis, {"axis"});
+  b.method("get_twist_axis", &IKChainJoint::get_twist_axis);
+
+  b.constant("JointType", "JOINT_BALL", JOINT_BALL);
+  b.constant("JointType", "JOINT_HINGE", JOINT_HINGE);
+
+  b.property({"bone_name", GDEXTENSION_VARIANT_TYPE_STRING}, "set_bone_name", "get_bone_name");
+  b.property({"type", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_ENUM, "Ball,Hinge"}, "set_type", "get_type");
+  b.group("Hinge", "hinge_");
+  b.property({"hinge_axis", GDEXTENSION_VARIANT_TYPE_VECTOR3}, "set_hinge_axis", "get_hinge_axis");
+  b.property({"hinge_limit_enabled", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_hinge_limit_enabled",
+             "is_hinge_limit_enabled");
+  b.property({"hinge_min", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "-180,180,0.1,radians_as_degrees"},
+             "set_hinge_min", "get_hinge_min");
+  b.property({"hinge_max", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "-180,180,0.1,radians_as_degrees"},
+             "set_hinge_max", "get_hinge_max");
+  b.group("Cone", "cone_");
+  b.property({"cone_limit_enabled", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_cone_limit_enabled", "is_cone_limit_enabled");
+  b.property({"cone_angle", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0,180,0.1,radians_as_degrees"},
+             "set_cone_angle", "get_cone_angle");
+  b.group("Twist", "twist_");
+  b.property({"twist_limit_enabled", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_twist_limit_enabled",
+             "is_twist_limit_enabled");
+  b.property({"twist_min", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "-180,180,0.1,radians_as_degrees"},
+             "set_twist_min", "get_twist_min");
+  b.property({"twist_max", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "-180,180,0.1,radians_as_degrees"},
+             "set_twist_max", "get_twist_max");
+  b.property({"twist_axis", GDEXTENSION_VARIANT_TYPE_VECTOR3}, "set_twist_axis", "get_twist_axis");
+}
+
+const IKChainJoint* IKChainJoint::from_object(gdx::ObjectPtr object) {
+  return gdx::instance_of<IKChainJoint>(object, gdx::String(kClass));
+}
+
+void IKChainJoint::changed() {
+  bump_generation();
+  gdx::Resource::unchecked(owner_).emit_changed();
+}
+
+void IKChainJoint::set_bone_name(const gdx::String& name) {
+  bone_name_ = name.utf8();
+  changed();
+}
+void IKChainJoint::set_type(int64_t type) {
+  type_ = std::clamp<int64_t>(type, JOINT_BALL, JOINT_HINGE);
+  if (type_ != type) report_clamped(kClass, "type", "0..1 (IKChainJoint.JOINT_*)", double(type), double(type_));
+  changed();
+}
+void IKChainJoint::set_hinge_axis(const gdx::Vector3& axis) {
+  hinge_axis_ = axis;  // a zero or non-finite axis is reported by the IKChain's configuration warnings
+  changed();
+}
+void IKChainJoint::set_hinge_limit_enabled(bool on) {
+  hinge_limit_enabled_ = on;
+  changed();
+}
+void IKChainJoint::set_hinge_min(double radians) {
+  hinge_min_ = clamp_angle("hinge_min", "[-pi, pi] rad", radians, -kPi, kPi, hinge_min_);
+  changed();
+}
+void IKChainJoint::set_hinge_max(double radians) {
+  hinge_max_ = clamp_angle("hinge_max", "[-pi, pi] rad", radians, -kPi, kPi, hinge_max_);
+  changed();
+}
+void IKChainJoint::set_cone_limit_enabled(bool on) {
+  cone_limit_enabled_ = on;
+  changed();
+}
+void IKChainJoint::set_cone_angle(double radians) {
+  cone_angle_ = clamp_angle("cone_angle", "[0, pi] rad", radians, 0.0, kPi, cone_angle_);
+  changed();
+}
+void IKChainJoint::set_twist_limit_enabled(bool on) {
+  twist_limit_enabled_ = on;
+  changed();
+}
+void IKChainJoint::set_twist_min(double radians) {
+  twist_min_ = clamp_angle("twist_min", "[-pi, pi] rad", radians, -kPi, kPi, twist_min_);
+  changed();
+}
+void IKChainJoint::set_twist_max(double radians) {
+  twist_max_ = clamp_angle("twist_max", "[-pi, pi] rad", radians, -kPi, kPi, twist_max_);
+  changed();
+}
+void IKChainJoint::set_twist_axis(const gdx::Vector3& axis) {
+  twist_axis_ = axis;
+  changed();
+}
+
+glm::dvec3 IKChainJoint::hinge_axis_in_bone() const { return gdx::to_glm(hinge_axis_); }
+
+JointLimits IKChainJoint::limits() const {
+  JointLimits l;
+  l.has_hinge_limit = type_ == JOINT_HINGE && hinge_limit_enabled_;
+  l.hinge_min = hinge_min_;
+  l.hinge_max = hinge_max_;
+  l.has_cone_limit = type_ == JOINT_BALL && cone_limit_enabled_;
+  l.cone_angle = cone_angle_;
+  l.has_twist_limit = type_ == JOINT_BALL && twist_limit_enabled_;
+  l.twist_min = twist_min_;
+  l.twist_max = twist_max_;
+  l.twist_axis = gdx::to_glm(twist_axis_);
+  return l;
+}
+
+}  // namespace ikchain::godot

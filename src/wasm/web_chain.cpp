@@ -1,0 +1,232 @@
+#include "wasm/web_chain.hpp"
+
+#include <cmath>
+
+#include "wasm/bench_cases.hpp"
+
+namespace ikchain {
+namespace web {
+
+namespace {
+bool finite(double v) { return std::isfinite(v); }
+}  // namespace
+
+void WebChain::clear_joints() { builder_.clear(); }
+
+void WebChain::add_hinge(double ox, double oy, double oz, double ax, double ay, double az, bool limited,
+                         double min_angle, double max_angle) {
+  JointDesc j;
+  j.type = JointType::kHinge;
+  j.offset_translation = glm::dvec3(ox, oy, oz);
+  j.hinge_axis = glm::dvec3(ax, ay, az);
+  j.limits.has_hinge_limit = limited;
+  if (limited) {
+    j.limits.hinge_min = min_angle;
+    j.limits.hinge_max = max_angle;
+  }
+  builder_.add_joint(j);
+}
+
+void WebChain::add_ball(double ox, double oy, double oz, bool limited, double cone_angle, double twist_min,
+                        double twist_max) {
+  JointDesc j;
+  j.type = JointType::kBall;
+  j.offset_translation = glm::dvec3(ox, oy, oz);
+  j.limits.has_cone_limit = limited;
+  j.limits.has_twist_limit = limited;
+  if (limited) {
+    j.limits.cone_angle = cone_angle;
+    j.limits.twist_min = twist_min;
+    j.limits.twist_max = twist_max;
+  }
+  builder_.add_joint(j);
+}
+
+void WebChain::set_tip(double x, double y, double z) { builder_.set_tip_offset(glm::dvec3(x, y, z)); }
+
+std::string WebChain::build() {
+  Chain built;
+  const Message m = builder_.build(built);
+  if (!m.empty()) return m.c_str();
+  chain_ = built;
+  // Sized once here: solves then allocate nothing.
+  workspace_.reset(chain_, kMaxGoals);
+  fk_workspace_.reset(chain_, 1);
+  params_ = Eigen::VectorXd::Zero(chain_.dof_count());
+  frames_.assign(7 * chain_.joint_count() + 3, 0.0);
+  result_ = SolveResult();
+  for (Goal& g : goals_)  // effectors beyond the new chain fall back to its tip
+    if (g.effector > chain_.joint_count()) g.effector = 0;
+  return "";
+}
+
+std::string WebChain::build_bench_chain(int joints, bool planar) {
+  if (joints < 1 || joints > 1000) return "joints must be in 1..1000, got " + std::to_string(joints);
+  builder_.clear();
+  Chain probe;
+  const Message m = bench_cases::make_hinge_chain(joints, planar, 1.0, probe);
+  if (!m.empty()) return m.c_str();
+  for (int i = 0; i < joints; ++i) {
+    const glm::dvec3 axis = probe.hinge_axis(i);
+    const glm::dvec3 offset = probe.offset_translation(i);
+    add_hinge(offset.x, offset.y, offset.z, axis.x, axis.y, axis.z, false, 0.0, 0.0);
+  }
+  const glm::dvec3 tip = probe.tip_offset();
+  set_tip(tip.x, tip.y, tip.z);
+  return build();
+}
+
+std::string WebChain::add_goal(const Goal& goal) {
+  if (goal_count() >= kMaxGoals)
+    return "goals: at most " + std::to_string(kMaxGoals) + " goals; call clearGoals() first";
+  goals_.push_back(goal);
+  return "";
+}
+
+std::string WebChain::add_position_goal(double x, double y, double z, int effector, double weight) {
+  return add_goal(Goal::position(glm::dvec3(x, y, z), effector, weight));
+}
+
+std::string WebChain::add_orientation_goal(double qx, double qy, double qz, double qw, int effector,
+                                           double weight) {
+  return add_goal(Goal::orientation(glm::dquat(qw, qx, qy, qz), effector, weight));
+}
+
+std::string WebChain::add_aim_goal(double axis_x, double axis_y, double axis_z, double dir_x, double dir_y,
+                                   double dir_z, int effector, double weight) {
+  return add_goal(Goal::aim(glm::dvec3(axis_x, axis_y, axis_z), glm::dvec3(dir_x, dir_y, dir_z), effector, weight));
+}
+
+Goal* WebChain::goal_of_kind(int index, GoalKind kind) {
+  if (index < 0 || index >= goal_count() || goals_[index].kind != kind) return nullptr;
+  return &goals_[index];
+}
+
+bool WebChain::set_goal_position(int index, double x, double y, double z) {
+  Goal* g = goal_of_kind(index, GoalKind::kPosition);
+  if (g) g->target_position = glm::dvec3(x, y, z);
+  return g != nullptr;
+}
+
+bool WebChain::set_goal_orientation(int index, double qx, double qy, double qz, double qw) {
+  Goal* g = goal_of_kind(index, GoalKind::kOrientation);
+  if (g) g->target_orientation = glm::dquat(qw, qx, qy, qz);
+  return g != nullptr;
+}
+
+bool WebChain::set_goal_aim_direction(int index, double x, double y, double z) {
+  Goal* g = goal_of_kind(index, GoalKind::kAim);
+  if (g) g->aim_direction = glm::dvec3(x, y, z);
+  return g != nullptr;
+}
+
+int WebChain::solve(int solver_kind) {
+  // The core validates everything (chain built, goals, options, kind) and names the bad field.
+  result_ = ikchain::solve(static_cast<SolverKind>(solver_kind), chain_, Span<const Goal>(goals_), options_,
+                           workspace_, params_);
+  return static_cast<int>(result_.reason);
+}
+
+void WebChain::reset_pose() { params_.setZero(); }
+
+std::string WebChain::set_params(const double* values, int count) {
+  if (count != chain_.dof_count())
+    return "params: expected " + std::to_string(chain_.dof_count()) + " values (one per DOF), got " +
+           std::to_string(count);
+  for (int i = 0; i < count; ++i)
+    if (!finite(values[i])) return "params: value " + std::to_string(i) + " is not finite";
+  for (int i = 0; i < count; ++i) params_[i] = values[i];
+  return "";
+}
+
+const std::vector<double>& WebChain::frames() {
+  if (!chain_.valid()) {
+    frames_.clear();
+    return frames_;
+  }
+  forward_kinematics(chain_, params_.data(), fk_workspace_);
+  const int n = chain_.joint_count();
+  for (int i = 0; i < n; ++i) {
+    const glm::dvec3& o = fk_workspace_.joint_origins[i];
+    const glm::dquat& q = fk_workspace_.joint_orientations[i];
+    double* f = frames_.data() + 7 * i;
+    f[0] = o.x, f[1] = o.y, f[2] = o.z;
+    f[3] = q.x, f[4] = q.y, f[5] = q.z, f[6] = q.w;
+  }
+  double* t = frames_.data() + 7 * n;
+  t[0] = fk_workspace_.tip.x, t[1] = fk_workspace_.tip.y, t[2] = fk_workspace_.tip.z;
+  return frames_;
+}
+
+// ------------------------------------------------------------------------------ benchmark cases
+
+int bench_max_iterations(int solver_kind) {
+  return bench_cases::max_iterations_for(static_cast<SolverKind>(solver_kind));
+}
+
+std::vector<double> bench_targets(int joints, int count, unsigned seed) {
+  std::vector<double> out;
+  Chain chain;
+  if (joints < 1 || count < 1 || !bench_cases::make_hinge_chain(joints, false, 1.0, chain).empty()) return out;
+  for (const glm::dvec3& t : bench_cases::random_targets(chain, count, seed)) {
+    out.push_back(t.x);
+    out.push_back(t.y);
+    out.push_back(t.z);
+  }
+  return out;
+}
+
+ConvergenceTrace convergence_trace(int solver_kind) {
+  ConvergenceTrace trace;
+  trace.stopped = "budget";
+  WebChain c;
+  c.build_bench_chain(bench_cases::kConvergenceJoints, false);
+  Chain probe;
+  bench_cases::make_hinge_chain(bench_cases::kConvergenceJoints, false, 1.0, probe);
+  const glm::dvec3 target = bench_cases::random_targets(probe, 1, bench_cases::kConvergenceSeed)[0];
+  trace.tolerance = bench_cases::kRelTolerance * c.total_length();
+  c.set_tolerances(trace.tolerance, c.options().orientation_tolerance);
+  c.set_warm_start(false);
+  c.add_position_goal(target.x, target.y, target.z, 0, 1.0);
+  trace.errors.push_back(glm::length(probe.rest_tip() - target));  // k = 0
+  const int max_k = std::min(bench_cases::max_iterations_for(static_cast<SolverKind>(solver_kind)),
+                             bench_cases::kConvergenceMaxBudget);
+  for (int k = 1; k <= max_k; ++k) {
+    c.set_max_iterations(k);
+    c.solve(solver_kind);
+    const SolveResult& r = c.last_result();
+    if (!r.usable()) {
+      trace.stopped = r.message.c_str();
+      break;
+    }
+    trace.errors.push_back(r.final_position_error);
+    if (r.iterations < k) {
+      trace.stopped = to_string(r.reason);
+      break;
+    }
+  }
+  return trace;
+}
+
+PrecisionRun precision_run(int solver_kind, bool planar) {
+  PrecisionRun run;
+  WebChain c;
+  c.build_bench_chain(bench_cases::kPrecisionJoints, planar);
+  Chain probe;
+  bench_cases::make_hinge_chain(bench_cases::kPrecisionJoints, planar, 1.0, probe);
+  const bench_cases::PrecisionCase pc = bench_cases::precision_case(probe, planar);
+  c.set_params(pc.start.data(), static_cast<int>(pc.start.size()));
+  c.set_tolerances(bench_cases::kRelTolerance * c.total_length(), c.options().orientation_tolerance);
+  c.set_warm_start(true);
+  c.set_max_iterations(bench_cases::max_iterations_for(static_cast<SolverKind>(solver_kind)));
+  c.add_position_goal(pc.target.x, pc.target.y, pc.target.z, 0, 1.0);
+  c.solve(solver_kind);
+  const SolveResult& r = c.last_result();
+  run.distance = r.final_position_error;
+  run.reason = r.usable() ? to_string(r.reason) : r.message.c_str();
+  run.iterations = r.iterations;
+  return run;
+}
+
+}  // namespace web
+}  // namespace ikchain
