@@ -362,6 +362,14 @@ def table(doc):
         for r in doc["walltime"]:
             lines.append(f"  {r['system']:<8} {r['solver']:<9} {r['settings']:<9} {r['chains']} chains: "
                          f"{r['cpu_ms_for_chains']:6.2f} ms CPU | {r['wall_ms_for_chains']:6.2f} ms wall")
+    odd = [r for r in doc["records"] if r["missing_updates"] or r["repeated_updates_after_first_frame"]]
+    if odd:
+        lines.append("")
+        lines.append("WARNING: skeletons that missed a frame's update (scored as failures) or updated twice after "
+                     "the first frame:")
+        for r in odd:
+            lines.append(f"  {r['system']} {r['solver']} {r['settings']} n={r['joints']}: missing "
+                         f"{r['missing_updates']}, repeated {r['repeated_updates_after_first_frame']}")
     lines.append("")
     lines.append("targets (issue 7):")
     for v in doc["verdicts"]:
