@@ -414,16 +414,18 @@ METHOD = {
               "joints b0..b<n-1> are free ball joints; chain length L = n; identity skeleton transform",
     "targets": "per chain: the tip of FK(A), A = n random rotations (uniform axis, angle in [0.2, 1.0] rad), "
                "so every target is reachable; the same seeded targets for every system",
-    "success_rate_first_frame": "fraction of chains whose tip is within 1e-3*L of the target after the FIRST "
-                                "frame, every skeleton starting at its rest pose (straight); the tip is read in "
-                                "Skeleton3D.skeleton_updated; a chain with no update that frame counts as a failure",
+    "success_rate_first_frame": "fraction of 1,000 chains whose tip is within 1e-3*L of the target after the "
+                                "FIRST modifier pass: the rigs enter the tree with their modifiers inactive (rest "
+                                "pose, straight), one frame later all are switched on; the tip is read at the first "
+                                "Skeleton3D.skeleton_updated of that frame (a skeleton updates twice in that frame: "
+                                "success_rate_first_frame_last_pass scores the second); no update = failure",
     "median_error_first_frame": "median tip-target distance after the first frame (skeleton units)",
-    "tracking_error_120_frames": "median tip-target distance over 120 further frames (all chains x frames) while "
+    "tracking_error_120_frames": "median tip-target distance over 120 further frames (100 chains x 120 frames) while "
                                  "the target follows FK(slerp(A, B, k/120)) per joint (B another random pose); "
                                  "each node keeps its own warm start; p95 and max also given",
     "cost_per_solve": "valgrind callgrind instruction count (Ir) per chain per frame: (whole-process count during "
                       "F frames with the modifiers active - the same F frames with active = false) / (chains x F), "
-                      "targets moving in both phases, n = 10 unless stated; phases cut by callgrind dumps at "
+                      "targets moving in both phases, 20 chains x 10 frames, n = 2 and 10, template_release library; phases cut by callgrind dumps at "
                       "marker calls (--dump-before=symlink), start-up uninstrumented (--instr-atstart=no)",
     "floor": "two modifiers writing the same n rotations without solving: Godot's FABRIK3D with max_iterations = 0 "
              "(its C++ path: read the chain, write n rotations) and a GDScript SkeletonModifier3D calling "
