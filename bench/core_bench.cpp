@@ -6,6 +6,10 @@
 //   core.json        one record per (solver, joints): success rate, median/p90 time, iterations
 //   precision.json   the lecture's precision case: a target 2 units beyond full reach
 //   convergence.json error after k iterations, k = 1..K, for one fixed target at n = 10
+//   limits.json      joint limits on: two synthetic limited arms (6 and 7 hinges), position-only
+//                    and full-pose goals made by FK of random in-limit poses, started at the
+//                    middle of the limits; success = within tolerance and within limits by our FK;
+//                    and the time budget's overrun on a 100-joint chain
 //
 // Method (see docs/benchmarks.md): targets are FK tips of seeded random joint vectors (so they are
 // reachable), every solve starts from the rest pose (warm_start = false), success is judged by our
@@ -13,7 +17,8 @@
 // with std::chrono::steady_clock around the solve() call (the dispatcher's validation and
 // error measurement included: what a caller pays). Medians over many solves, after a warm-up.
 //
-// Usage: core_bench [--out DIR] [--quick]     (--quick: few trials, for smoke runs)
+// Usage: core_bench [--out DIR] [--quick] [--limits-only]
+//   --quick: few trials, for smoke runs; --limits-only: only limits.json
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -505,21 +510,210 @@ std::string run_convergence(const SolverSpec& spec, const glm::dvec3& target, in
   return s;
 }
 
+// ------------------------------------------------------------------------------------ limits.json
+
+// Synthetic limited arms, bones along +Y, hinges about the bone (Y, a "twist") and across it (Z)
+// alternately. arm7 follows the Franka Panda's joint pattern and limit ranges (rad; joint 4 must
+// stay bent, joint 6 mostly positive), arm6 a 6-axis industrial pattern with asymmetric ranges.
+struct LimitedArm {
+  const char* name;
+  std::vector<char> axes;  // 'y' or 'z'
+  std::vector<double> links, lower, upper;
+};
+
+std::vector<LimitedArm> limited_arms() {
+  return {
+      {"arm7", {'y', 'z', 'y', 'z', 'y', 'z', 'y'}, {0.333, 0.316, 0.0825, 0.384, 0.088, 0.107, 0.1},
+       {-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973},
+       {2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973}},
+      {"arm6", {'y', 'z', 'z', 'y', 'z', 'y'}, {0.4, 0.45, 0.42, 0.1, 0.1, 0.08},
+       {-3.0, -1.2, -2.4, -3.0, -2.0, -3.0}, {3.0, 2.5, 0.6, 3.0, 2.0, 3.0}},
+  };
+}
+
+Chain make_limited_arm(const LimitedArm& arm) {
+  ikchain::ChainBuilder b;
+  const int n = static_cast<int>(arm.axes.size());
+  for (int i = 0; i < n; ++i) {
+    ikchain::JointDesc j;
+    j.type = ikchain::JointType::kHinge;
+    j.hinge_axis = arm.axes[i] == 'y' ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, arm.links[i - 1], 0);
+    j.limits.has_hinge_limit = true;
+    j.limits.hinge_min = arm.lower[i];
+    j.limits.hinge_max = arm.upper[i];
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, arm.links[n - 1], 0));
+  Chain c;
+  const ikchain::Message m = b.build(c);
+  if (!m.empty()) {
+    std::fprintf(stderr, "limited arm %s: %s\n", arm.name, m.c_str());
+    std::exit(2);
+  }
+  return c;
+}
+
+// One (arm, goal kind, solver) cell: `trials` FK-made goals, each solved from the middle of the
+// limits. Full pose = tip position + tip orientation, the orientation weighted by L^2 (a radian
+// counts like one chain length).
+std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverSpec& spec, int restarts,
+                            int trials, std::string& table) {
+  const Chain chain = make_limited_arm(arm);
+  const int n = chain.dof_count();
+  const double length = chain.total_length();
+  ikchain::SolverOptions o;
+  o.position_tolerance = kRelTolerance * length;
+  o.orientation_tolerance = 1e-4;
+  o.max_iterations = spec.max_iterations;
+  o.warm_start = true;
+  o.max_restarts = restarts;
+  ikchain::Workspace ws(chain, 2), fk(chain, 1);
+  Eigen::VectorXd middle(n), truth(n), params(n);
+  for (int i = 0; i < n; ++i) middle[i] = 0.5 * (arm.lower[i] + arm.upper[i]);
+  std::mt19937 rng(77u + (full_pose ? 1000u : 0u) + static_cast<unsigned>(n));
+  std::vector<double> us, iterations, restart_counts;
+  std::map<std::string, int> reasons;
+  int successes = 0;
+  for (int t = 0; t < trials; ++t) {
+    for (int i = 0; i < n; ++i) truth[i] = std::uniform_real_distribution<double>(arm.lower[i], arm.upper[i])(rng);
+    ikchain::forward_kinematics(chain, truth.data(), fk);
+    ikchain::Goal goals[2] = {ikchain::Goal::position(fk.tip),
+                              ikchain::Goal::orientation(ikchain::effector_orientation(chain, fk, 0), 0, length * length)};
+    params = middle;
+    const Clock::time_point t0 = Clock::now();
+    const ikchain::SolveResult r =
+        ikchain::solve(spec.kind, chain, ikchain::Span<const ikchain::Goal>(goals, full_pose ? 2 : 1), o, ws, params);
+    us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+    iterations.push_back(r.iterations);
+    restart_counts.push_back(r.restarts);
+    ++reasons[ikchain::to_string(r.reason)];
+    ikchain::forward_kinematics(chain, params.data(), fk);
+    const double position_error = glm::length(fk.tip - goals[0].target_position);
+    const glm::dquat q = ikchain::effector_orientation(chain, fk, 0);
+    const double orientation_error =
+        glm::length(ikchain::so3::log(glm::normalize(goals[1].target_orientation * glm::conjugate(q))));
+    const bool ok = params.allFinite() && position_error <= o.position_tolerance &&
+                    (!full_pose || orientation_error <= o.orientation_tolerance) &&
+                    ikchain::within_limits(chain, params.data(), 1e-9);
+    successes += ok;
+  }
+  const double rate = static_cast<double>(successes) / trials;
+  const std::string name = std::string(spec.name) + (restarts > 0 ? "+restarts" : "");
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "  %-5s %-9s %-22s %7.2f %%  median %8.1f us  p99 %9.1f us  median it %5.0f  p99 restarts %3.0f\n",
+                arm.name, full_pose ? "full_pose" : "position", name.c_str(), 100.0 * rate, quantile(us, 0.5),
+                quantile(us, 0.99), quantile(iterations, 0.5), quantile(restart_counts, 0.99));
+  table += line;
+  std::string s = "{";
+  s += "\"arm\": " + json_string(arm.name);
+  s += ", \"goal\": " + json_string(full_pose ? "full_pose" : "position");
+  s += ", \"solver\": " + json_string(spec.name);
+  s += ", \"max_restarts\": " + std::to_string(restarts);
+  s += ", \"trials\": " + std::to_string(trials);
+  s += ", \"success_rate\": " + json_number(rate, "%.4f");
+  s += ", \"p99_restarts\": " + json_number(quantile(restart_counts, 0.99));
+  s += ", \"median_us\": " + json_number(quantile(us, 0.5), "%.4g");
+  s += ", \"p90_us\": " + json_number(quantile(us, 0.9), "%.4g");
+  s += ", \"p99_us\": " + json_number(quantile(us, 0.99), "%.4g");
+  s += ", \"median_iterations\": " + json_number(quantile(iterations, 0.5), "%.4g");
+  s += ", \"reasons\": {";
+  bool first = true;
+  for (const auto& kv : reasons) {
+    s += (first ? "" : ", ") + json_string(kv.first) + ": " + std::to_string(kv.second);
+    first = false;
+  }
+  s += "}}";
+  return s;
+}
+
+// The time budget on a 100-joint chain: solves that cannot finish (tolerance 1e-14 L) under a
+// budget; the worst overrun over the budget, as a fraction of it, and the median time per iteration.
+std::string run_budget_cell(const SolverSpec& spec, double budget_us, int trials, std::string& table) {
+  const Chain chain = make_hinge_chain(100, false, 0.1);
+  ikchain::SolverOptions o;
+  o.position_tolerance = 1e-14 * chain.total_length();
+  o.stall_tolerance = 0.0;
+  o.max_iterations = 100000;
+  o.warm_start = false;
+  o.time_budget_usec = budget_us;
+  ikchain::Workspace ws(chain, 1);
+  Eigen::VectorXd params(chain.dof_count());
+  const std::vector<glm::dvec3> targets = random_targets(chain, trials, 9090u);
+  std::vector<double> overrun, per_iteration;
+  int exhausted = 0;
+  for (const glm::dvec3& target : targets) {
+    const ikchain::Goal goal = ikchain::Goal::position(target);
+    params.setZero();
+    const ikchain::SolveResult r =
+        ikchain::solve(spec.kind, chain, ikchain::Span<const ikchain::Goal>(&goal, 1), o, ws, params);
+    if (!r.budget_exhausted) continue;
+    ++exhausted;
+    overrun.push_back((r.elapsed_us - budget_us) / budget_us);
+    per_iteration.push_back(r.elapsed_us / std::max(1, r.iterations));
+  }
+  const double worst = overrun.empty() ? NAN : *std::max_element(overrun.begin(), overrun.end());
+  char line[256];
+  std::snprintf(line, sizeof(line), "  budget %6.0f us  %-14s exhausted %4d / %4d  median overrun %+6.2f %%  worst %+7.2f %%  (%.1f us/iteration)\n",
+                budget_us, spec.name, exhausted, trials, 100.0 * quantile(overrun, 0.5), 100.0 * worst,
+                quantile(per_iteration, 0.5));
+  table += line;
+  std::string s = "{";
+  s += "\"solver\": " + json_string(spec.name);
+  s += ", \"budget_us\": " + json_number(budget_us);
+  s += ", \"trials\": " + std::to_string(trials);
+  s += ", \"exhausted\": " + std::to_string(exhausted);
+  s += ", \"median_overrun\": " + json_number(quantile(overrun, 0.5), "%.4f");
+  s += ", \"worst_overrun\": " + json_number(worst, "%.4f");
+  s += ", \"median_us_per_iteration\": " + json_number(quantile(per_iteration, 0.5), "%.4g") + "}";
+  return s;
+}
+
+constexpr int kBenchRestarts = 20;
+
+bool write_limits_json(const std::string& out_dir, bool quick) {
+  std::string records, table = "limits on (success by our FK, within limits):\n";
+  const int trials = quick ? 100 : 2000;
+  for (const LimitedArm& arm : limited_arms())
+    for (bool full_pose : {false, true})
+      for (const SolverSpec& spec : solver_specs()) {
+        if (spec.is_kdl || spec.kind == SolverKind::kTwoBone) continue;
+        records += (records.empty() ? "\n  " : ",\n  ") + run_limits_cell(arm, full_pose, spec, 0, trials, table);
+        // Seeded restarts (off by default) for the Newton-like solvers.
+        if (spec.kind == SolverKind::kDLS || spec.kind == SolverKind::kJacobianPinv || spec.kind == SolverKind::kBFGS)
+          records += ",\n  " + run_limits_cell(arm, full_pose, spec, kBenchRestarts, trials, table);
+      }
+  std::string budget;
+  table += "time budget, 100-joint chain:\n";
+  for (const SolverSpec& spec : solver_specs()) {
+    if (spec.is_kdl || spec.kind == SolverKind::kTwoBone) continue;
+    for (double b : {200.0, 1000.0})
+      budget += (budget.empty() ? "\n  " : ",\n  ") + run_budget_cell(spec, b, quick ? 10 : 100, table);
+  }
+  std::fputs(table.c_str(), stdout);
+  return write_file(out_dir + "/limits.json", "{\"meta\": " + meta_json(quick) + ",\n\"records\": [" + records +
+                                                  "\n],\n\"budget\": [" + budget + "\n]}\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string out_dir = "build/bench";
-  bool quick = false;
+  bool quick = false, limits_only = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--out") && i + 1 < argc) {
       out_dir = argv[++i];
     } else if (!std::strcmp(argv[i], "--quick")) {
       quick = true;
+    } else if (!std::strcmp(argv[i], "--limits-only")) {
+      limits_only = true;
     } else {
-      std::fprintf(stderr, "usage: %s [--out DIR] [--quick]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--out DIR] [--quick] [--limits-only]\n", argv[0]);
       return 2;
     }
   }
+  if (limits_only) return write_limits_json(out_dir, quick) ? 0 : 1;
   const Clock::time_point run_start = Clock::now();
   start_loadavg();
   const std::vector<int> joint_counts = {2, 3, 5, 7, 10, 15, 20, 30, 50, 70, 100};
@@ -575,6 +769,8 @@ int main(int argc, char** argv) {
   if (!write_file(out_dir + "/convergence.json", "{\"meta\": " + meta_json(quick) + ",\n\"target\": " +
                                                      target_json + ",\n\"traces\": [" + traces + "\n]}\n"))
     return 1;
+
+  if (!write_limits_json(out_dir, quick)) return 1;
 
   std::fprintf(stderr, "benchmark finished in %.1f s\n",
                std::chrono::duration<double>(Clock::now() - run_start).count());

@@ -8,6 +8,25 @@
 
 namespace ikchain {
 
+namespace {
+
+// Every component finite and within +-kMaxMagnitude.
+bool bounded(const glm::dvec3& v) {
+  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
+}
+
+// Length of a finite vector or quaternion without overflow or underflow in the squares (a plain
+// glm::length of (1e200, 0, 0) is inf, and normalising by it gives the zero vector).
+template <typename V>
+double scaled_length(const V& v) {
+  double m = 0.0;
+  for (int i = 0; i < V::length(); ++i) m = std::max(m, std::abs(v[i]));
+  if (!(m > 0.0) || !std::isfinite(m)) return m;  // 0, inf or NaN as they are
+  return m * glm::length(v / m);
+}
+
+}  // namespace
+
 ChainBuilder& ChainBuilder::add_joint(const JointDesc& joint) {
   joints_.push_back(joint);
   return *this;
@@ -45,7 +64,9 @@ Message ChainBuilder::build(Chain& out) const {
   out = Chain();
   const int n = static_cast<int>(joints_.size());
   if (n == 0) return Message::format("chain has 0 joints: add at least one joint");
-  if (!so3::finite(tip_offset_)) return Message::format("tip_offset is not finite");
+  if (!bounded(tip_offset_))
+    return Message::format("tip_offset (%g, %g, %g) must be finite, each component within +-%g m", tip_offset_.x,
+                           tip_offset_.y, tip_offset_.z, kMaxMagnitude);
   if (!so3::finite(tip_rotation_) || glm::length(tip_rotation_) < 1e-9)
     return Message::format("tip_rotation must be a finite non-zero quaternion");
 
@@ -59,14 +80,20 @@ Message ChainBuilder::build(Chain& out) const {
   int dofs = 0;
   for (int i = 0; i < n; ++i) {
     const JointDesc& j = joints_[i];
-    if (!so3::finite(j.offset_translation))
-      return Message::format("joint %d: offset_translation is not finite", i);
-    if (!so3::finite(j.rest_rotation) || glm::length(j.rest_rotation) < 1e-9)
+    if (!bounded(j.offset_translation))
+      return Message::format("joint %d: offset_translation (%g, %g, %g) must be finite, each component within "
+                             "+-%g m", i, j.offset_translation.x, j.offset_translation.y, j.offset_translation.z,
+                             kMaxMagnitude);
+    const double rest_len = scaled_length(j.rest_rotation);
+    if (!std::isfinite(rest_len) || rest_len < 1e-9)
       return Message::format("joint %d: rest_rotation must be a finite non-zero quaternion", i);
     JointLimits l = j.limits;
-    glm::dvec3 axis = j.hinge_axis;
+    // The axis a joint type does not use is stored as its default, so the chain holds no NaN.
+    glm::dvec3 axis(0.0, 0.0, 1.0);
     if (j.type == JointType::kHinge) {
-      const double len = glm::length(axis);
+      axis = j.hinge_axis;
+      l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
+      const double len = scaled_length(axis);
       if (!std::isfinite(len) || len < 1e-9)
         return Message::format("joint %d: hinge_axis must be a finite non-zero vector", i);
       axis /= len;
@@ -78,7 +105,7 @@ Message ChainBuilder::build(Chain& out) const {
                                  l.hinge_max);
       }
     } else if (j.type == JointType::kBall) {
-      const double len = glm::length(l.twist_axis);
+      const double len = scaled_length(l.twist_axis);
       if (!std::isfinite(len) || len < 1e-9)
         return Message::format("joint %d: limits.twist_axis must be a finite non-zero vector", i);
       l.twist_axis /= len;
@@ -99,7 +126,7 @@ Message ChainBuilder::build(Chain& out) const {
     rec.dof_offset = dofs;
     dofs += j.type == JointType::kBall ? 3 : 1;
     rec.offset_translation = j.offset_translation;
-    c.rest_rotations_[i] = glm::normalize(j.rest_rotation);
+    c.rest_rotations_[i] = glm::normalize(j.rest_rotation / rest_len);
     const glm::dquat& r = c.rest_rotations_[i];
     rec.rest_identity = (r.w == 1.0 && r.x == 0.0 && r.y == 0.0 && r.z == 0.0) ? 1 : 0;
     rec.hinge_axis = axis;

@@ -24,6 +24,14 @@
 
 namespace ikchain {
 
+// The largest magnitude the core accepts for a coordinate (offsets, targets, pole; m) or a joint
+// parameter (rad), and for a goal weight. Far beyond any scene (a float32 position tops out at
+// 3.4e38), yet squared errors and gradient products of 200 joints and several goals stay far from
+// overflow, so every error, cost and Jacobian entry of a valid input is finite; anything larger is
+// rejected by name rather than turned into inf or a silently zero direction.
+constexpr double kMaxMagnitude = 1e50;
+constexpr double kMaxWeight = 1e30;
+
 enum class JointType : uint8_t {
   kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)
   kHinge = 1,  // 1 rotational DOF about hinge_axis, param: angle (radians)

@@ -117,10 +117,9 @@ GoalErrors evaluate(const Chain& chain, Span<const Goal> goals, const Workspace&
     const double len2 = glm::dot(e, e);
     weighted += g.weight * len2;
     const double len = std::sqrt(len2);
-    if (g.kind == GoalKind::kPosition)
-      out.max_position = std::max(out.max_position, len);
-    else
-      out.max_orientation = std::max(out.max_orientation, len);
+    // Not std::max: it drops a NaN (max(0, NaN) is 0), and a NaN error must never read as "met".
+    double& worst = g.kind == GoalKind::kPosition ? out.max_position : out.max_orientation;
+    if (len > worst || std::isnan(len)) worst = len;
     sink(i, e * std::sqrt(g.weight));
   }
   out.cost = 0.5 * weighted;

@@ -73,6 +73,17 @@ void apply_step(const Chain& chain, const double* step, double max_step_angle, d
 void project_to_limits(const Chain& chain, double* params);
 // The same for one joint (CCD and FABRIK apply limits joint by joint).
 void project_joint_to_limits(const Chain& chain, int joint, double* params);
+// True when joint `joint` is a limited hinge resting on a bound (within 1e-12 rad) and a change of
+// its angle by `direction` (its sign is what counts) would push it out: the active set of the
+// Jacobian solvers' limit-aware steps and of BFGS's projected steps.
+inline bool hinge_blocked(const Chain& chain, int joint, const double* params, double direction) {
+  if (chain.joint_type(joint) != JointType::kHinge) return false;
+  const JointLimits& l = chain.limits(joint);
+  if (!l.has_hinge_limit) return false;
+  const double angle = params[chain.dof_offset(joint)];
+  constexpr double kOnBound = 1e-12;
+  return (angle <= l.hinge_min + kOnBound && direction < 0.0) || (angle >= l.hinge_max - kOnBound && direction > 0.0);
+}
 // True when every joint respects its limits within `slack` (rad).
 bool within_limits(const Chain& chain, const double* params, double slack = 1e-9);
 

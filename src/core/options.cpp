@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "core/chain.hpp"
+
 namespace ikchain {
 
 const char* to_string(SolverKind kind) {
@@ -29,8 +31,8 @@ Message SolverOptions::validate() const {
     return Message::format("max_step_angle must be >= 0 (0 = no cap), got %g", max_step_angle);
   if (!(positive(pinv_residual_tolerance) && pinv_residual_tolerance <= 1.0))
     return Message::format("pinv_residual_tolerance must be in (0, 1], got %g", pinv_residual_tolerance);
-  if (pinv_max_halvings < 0)
-    return Message::format("pinv_max_halvings must be >= 0, got %d", pinv_max_halvings);
+  if (pinv_max_halvings < 0 || pinv_max_halvings > kMaxPinvHalvings)
+    return Message::format("pinv_max_halvings must be in [0, %d], got %d", kMaxPinvHalvings, pinv_max_halvings);
   if (!positive(pinv_singular_threshold))
     return Message::format("pinv_singular_threshold must be > 0, got %g", pinv_singular_threshold);
   if (!positive(dls_min_damping))
@@ -45,10 +47,13 @@ Message SolverOptions::validate() const {
                            bfgs_wolfe_c1, bfgs_wolfe_c2);
   if (bfgs_max_line_search_steps <= 0)
     return Message::format("bfgs_max_line_search_steps must be > 0, got %d", bfgs_max_line_search_steps);
+  if (max_restarts < 0) return Message::format("max_restarts must be >= 0 (0 = none), got %d", max_restarts);
   if (!(std::isfinite(time_budget_usec) && time_budget_usec >= 0.0))
     return Message::format("time_budget_usec must be >= 0 (0 = no budget), got %g", time_budget_usec);
-  if (use_pole && !(std::isfinite(pole_in_base.x) && std::isfinite(pole_in_base.y) && std::isfinite(pole_in_base.z)))
-    return Message::format("pole_in_base must be finite when use_pole is set");
+  auto coordinate = [](double v) { return std::abs(v) <= kMaxMagnitude; };  // false for NaN
+  if (use_pole && !(coordinate(pole_in_base.x) && coordinate(pole_in_base.y) && coordinate(pole_in_base.z)))
+    return Message::format("pole_in_base (%g, %g, %g) must be finite, each component within +-%g m when use_pole is set",
+                           pole_in_base.x, pole_in_base.y, pole_in_base.z, kMaxMagnitude);
   return Message();
 }
 

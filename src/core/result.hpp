@@ -8,8 +8,12 @@ enum class TerminationReason : int {
   kConverged = 0,      // every goal within tolerance
   kMaxIterations = 1,  // iteration or time budget spent while still improving; pose usable, not
                        // converged (budget_exhausted tells the time budget apart)
-  kStalled = 2,        // no more progress and not at a best-reach optimum (e.g. limits, local minimum)
-  kUnreachable = 3,    // goals cannot all be met; the pose is the best reach (a stationary point)
+  kStalled = 2,        // no more progress, goals not met: a local minimum, a limit in the way, or
+                       // goals that may be unreachable but are not provably so; says nothing about
+                       // reachability (another start may succeed)
+  kUnreachable = 3,    // goals provably out of reach (a position goal beyond its effector's reach
+                       // from the root, or two beyond the bones between them) and the pose is the
+                       // best reach (a stationary point; see is_best_reach() in solve.cpp)
   kInvalidInput = 4,   // options/goals/params/chain invalid; params untouched, see message
 };
 const char* to_string(TerminationReason reason);
@@ -31,6 +35,7 @@ struct SolveResult {
   // True when the solver stopped because SolverOptions::time_budget_usec ran out (reason is then
   // kMaxIterations, or kUnreachable when the pose it stopped at is provably a best reach).
   bool budget_exhausted = false;
+  int restarts = 0;  // restarts run (SolverOptions::max_restarts); iterations include theirs
   Message message;          // why, for kInvalidInput (names the bad field); empty otherwise
 
   // Derived from the reason, so the two can never disagree (Ceres' IsSolutionUsable()): false only

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cmath>
 
 #include "core/kinematics.hpp"
@@ -23,23 +24,73 @@ const char* to_string(TerminationReason reason) {
 
 namespace {
 
-bool finite3(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+// Every component finite and within +-kMaxMagnitude (false for NaN).
+bool bounded3(const glm::dvec3& v) {
+  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
+}
 
-bool params_finite(const Eigen::Ref<const Eigen::VectorXd>& p) { return p.allFinite(); }
+// The start pose solve() defines: the caller's params (warm start) or the rest pose, projected onto
+// the limits. Recomputed from the backup when a solve must fall back to it.
+void make_start_pose(const Chain& chain, const SolverOptions& options, Eigen::Ref<Eigen::VectorXd> params) {
+  if (!options.warm_start) params.setZero();
+  project_to_limits(chain, params.data());
+}
 
-// A non-converged stop is "unreachable" when the pose is a best reach: either the only goal is a
-// tip position beyond the chain's length and the tip is as close as the chain's length allows
-// (within position_tolerance), or the objective's gradient J^T e vanishes (a stationary point with
-// error left). Limits make constrained optima non-stationary: those stay "stalled".
-// Needs ws to hold the forward kinematics of params, and `err` their measured errors (solve() has
-// both at hand for the final pose).
+// Largest distance effector k (1..n) can be from the root joint's origin o_0: the bones before it.
+double reach_of(const Chain& chain, int k) {
+  double reach = 0.0;
+  for (int i = 0; i < k; ++i) reach += chain.bone_length(i);
+  return reach;
+}
+
+// Smallest distance effector k can be from o_0 (triangle inequality): the longest bone before it
+// minus all the others, or 0.
+double inner_reach_of(const Chain& chain, int k) {
+  double longest = 0.0;
+  for (int i = 0; i < k; ++i) longest = std::max(longest, chain.bone_length(i));
+  return std::max(0.0, 2.0 * longest - reach_of(chain, k));
+}
+
+// How far a position goal's target is outside its effector's reach shell around o_0 (<= 0 inside).
+double outside_reach(const Chain& chain, const Goal& g) {
+  const int k = resolve_effector(chain, g.effector);
+  const double dist = glm::length(g.target_position - chain.root_in_base());
+  return std::max(dist - reach_of(chain, k), inner_reach_of(chain, k) - dist);
+}
+
+// True when the goals provably cannot all be met, by the chain's workspace bounds: a position goal
+// outside its effector's reach shell around o_0 (farther than the bones before it, or nearer than
+// the longest of them minus the others), or two position goals farther apart than the bones
+// between their effectors. (Orientation conflicts and limits are not bounded here: a solve they
+// stop is "stalled", which promises nothing about reachability.)
+bool provably_out_of_reach(const Chain& chain, Span<const Goal> goals, double tolerance) {
+  for (int a = 0; a < goals.size; ++a) {
+    if (goals[a].kind != GoalKind::kPosition) continue;
+    const int ka = resolve_effector(chain, goals[a].effector);
+    if (outside_reach(chain, goals[a]) > tolerance) return true;
+    for (int b = a + 1; b < goals.size; ++b) {
+      if (goals[b].kind != GoalKind::kPosition) continue;
+      const int kb = resolve_effector(chain, goals[b].effector);
+      const double between = std::abs(reach_of(chain, kb) - reach_of(chain, ka));
+      if (glm::length(goals[b].target_position - goals[a].target_position) > between + tolerance) return true;
+    }
+  }
+  return false;
+}
+
+// A non-converged stop is "unreachable" only when the goals are provably out of reach
+// (provably_out_of_reach) and the pose is a best reach: for a single tip position goal, the tip as
+// close as the reach shell allows (within position_tolerance); otherwise a stationary point of
+// the objective (J^T e vanishes) on a chain without limits (limits make constrained optima
+// non-stationary). Every other non-converged stop - a local minimum of reachable goals included -
+// is "stalled" (or the solver's kMaxIterations). Needs ws to hold the forward kinematics of
+// params, and `err` their measured errors (solve() has both at hand for the final pose).
 bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                    Workspace& ws, const double* params, const GoalErrors& err) {
+  if (!provably_out_of_reach(chain, goals, options.position_tolerance)) return false;
   if (goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
       resolve_effector(chain, goals[0].effector) == chain.joint_count()) {
-    const double dist = glm::length(goals[0].target_position - chain.root_in_base());
-    const double best = dist - chain.total_length();
-    if (best > options.position_tolerance) return err.max_position <= best + options.position_tolerance;
+    return err.max_position <= outside_reach(chain, goals[0]) + options.position_tolerance;
   }
   if (chain.any_limits()) return false;
   const int rows = 3 * goals.size;
@@ -123,6 +174,97 @@ bool apply_pole(const Chain& chain, Span<const Goal> goals, const SolverOptions&
   return false;
 }
 
+SolverStatus run_solver(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                        Workspace& ws, double* p) {
+  switch (kind) {
+    case SolverKind::kTwoBone: return solve_two_bone(chain, goals, options, ws, p);
+    case SolverKind::kCCD: return solve_ccd(chain, goals, options, ws, p);
+    case SolverKind::kJacobianPinv: return solve_jacobian_pinv(chain, goals, options, ws, p);
+    case SolverKind::kDLS: return solve_dls(chain, goals, options, ws, p);
+    case SolverKind::kBFGS: return solve_bfgs(chain, goals, options, ws, p);
+    case SolverKind::kFABRIK: return solve_fabrik(chain, goals, options, ws, p);
+  }
+  SolverStatus status;
+  status.reason = TerminationReason::kInvalidInput;
+  status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
+  return status;
+}
+
+// SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", 2014): a
+// few lines, no state beyond one word, no allocation; uniform doubles in [0, 1).
+struct SplitMix64 {
+  uint64_t state;
+  double uniform() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0);
+  }
+};
+
+// A random pose within the limits: limited hinges uniform in their range, free hinges in
+// [-pi, pi], ball joints a uniformly random axis and angle in [0, pi), projected onto their limits.
+void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
+  for (int i = 0; i < chain.joint_count(); ++i) {
+    const int o = chain.dof_offset(i);
+    if (chain.joint_type(i) == JointType::kHinge) {
+      const JointLimits& l = chain.limits(i);
+      const double lo = l.has_hinge_limit ? l.hinge_min : -so3::kPi;
+      const double hi = l.has_hinge_limit ? l.hinge_max : so3::kPi;
+      params[o] = lo + (hi - lo) * rng.uniform();
+    } else {
+      const double z = 2.0 * rng.uniform() - 1.0, phi = 2.0 * so3::kPi * rng.uniform();
+      const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const double angle = so3::kPi * rng.uniform();
+      params[o] = angle * r * std::cos(phi);
+      params[o + 1] = angle * r * std::sin(phi);
+      params[o + 2] = angle * z;
+    }
+  }
+  project_to_limits(chain, params);
+}
+
+// Seeded restarts (SolverOptions::max_restarts): while the goals are unmet, not provably out of
+// reach, restarts are left and the time budget is not spent, the solver runs again from a random
+// pose within the limits; the best pose over every run is kept (params, status). One mechanism for
+// every solver: what a run does when stuck stays the solver's business, this only decides whether
+// to try elsewhere.
+void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                  Workspace& ws, double* p, SolverStatus& status, int& restarts) {
+  if (options.max_restarts <= 0 || kind == SolverKind::kTwoBone) return;
+  if (status.reason == TerminationReason::kConverged || status.reason == TerminationReason::kInvalidInput) return;
+  if (provably_out_of_reach(chain, goals, options.position_tolerance)) return;
+  const int dofs = chain.dof_count();
+  SplitMix64 rng{options.restart_seed};
+  forward_kinematics(chain, p, ws);
+  double best_cost = measure_goals(chain, goals, ws).cost;
+  if (!std::isfinite(best_cost)) best_cost = INFINITY;
+  std::copy(p, p + dofs, ws.params_restart_best.data());
+  SolverStatus best = status;
+  int iterations = status.iterations;
+  while (restarts < options.max_restarts && !ws.deadline.hit && !ws.deadline.spent()) {
+    ++restarts;
+    random_pose(chain, rng, p);
+    SolverStatus run = run_solver(kind, chain, goals, options, ws, p);
+    iterations += run.iterations;
+    if (run.reason == TerminationReason::kInvalidInput) break;
+    forward_kinematics(chain, p, ws);
+    const GoalErrors err = measure_goals(chain, goals, ws);
+    if (err.cost < best_cost) {  // NaN compares false
+      best_cost = err.cost;
+      std::copy(p, p + dofs, ws.params_restart_best.data());
+      run.start = status.start;  // the reported start stays the caller's
+      run.start_measured = status.start_measured;
+      best = run;
+      if (err.within(options)) break;
+    }
+  }
+  std::copy(ws.params_restart_best.data(), ws.params_restart_best.data() + dofs, p);
+  status = best;
+  status.iterations = iterations;
+}
+
 }  // namespace
 
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
@@ -137,16 +279,25 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
   if (params.size() != chain.dof_count())
     return Message::format("params has %d entries, the chain has %d DOF", static_cast<int>(params.size()),
                            chain.dof_count());
-  if (!params_finite(params)) return Message::format("params contain NaN or inf");
+  if (!params.allFinite()) return Message::format("params contain NaN or inf");
+  for (int i = 0; i < params.size(); ++i) {
+    // A ball joint's rotation vector beyond ~1e154 has an infinite squared angle: NaN in FK.
+    if (!(std::abs(params[i]) <= kMaxMagnitude))
+      return Message::format("params[%d] is %g: joint parameters must be within +-%g rad", i, params[i],
+                             kMaxMagnitude);
+  }
   for (int i = 0; i < goals.size; ++i) {
     const Goal& g = goals[i];
-    if (!(std::isfinite(g.weight) && g.weight > 0.0))
-      return Message::format("goal %d: weight must be > 0, got %g", i, g.weight);
+    if (!(g.weight > 0.0 && g.weight <= kMaxWeight))
+      return Message::format("goal %d: weight must be > 0 and <= %g, got %g", i, kMaxWeight, g.weight);
     if (g.effector < 0 || g.effector > chain.joint_count())
       return Message::format("goal %d: effector must be in 0..%d, got %d", i, chain.joint_count(), g.effector);
     switch (g.kind) {
       case GoalKind::kPosition:
-        if (!finite3(g.target_position)) return Message::format("goal %d: target_position is not finite", i);
+        if (!bounded3(g.target_position))
+          return Message::format("goal %d: target_position (%g, %g, %g) must be finite, each component within "
+                                 "+-%g m", i, g.target_position.x, g.target_position.y, g.target_position.z,
+                                 kMaxMagnitude);
         break;
       case GoalKind::kOrientation: {
         const glm::dquat& q = g.target_orientation;
@@ -156,10 +307,14 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
         break;
       }
       case GoalKind::kAim:
-        if (!finite3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
-          return Message::format("goal %d: aim_axis must be a finite non-zero vector", i);
-        if (!finite3(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
-          return Message::format("goal %d: aim_direction must be a finite non-zero vector", i);
+        // Bounded: normalising (1e200, 0, 0) divides by an infinite length and gives the zero vector,
+        // which would read as "aim met".
+        if (!bounded3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+          return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
+                                 kMaxMagnitude);
+        if (!bounded3(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
+          return Message::format("goal %d: aim_direction must be a non-zero vector, each component within +-%g", i,
+                                 kMaxMagnitude);
         break;
       case GoalKind::kAimAt:
         if (!finite3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
@@ -174,6 +329,34 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
   return Message();
 }
 
+Message validate_inputs(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                        const Workspace& ws, const Eigen::Ref<const Eigen::VectorXd>& params) {
+  Message m = validate_inputs(chain, goals, options, ws, params);
+  if (!m.empty()) return m;
+  switch (kind) {
+    case SolverKind::kTwoBone:
+      if (chain.joint_count() != 2)
+        return Message::format("two_bone needs a chain of exactly 2 joints, got %d", chain.joint_count());
+      if (goals.size != 1 || goals[0].kind != GoalKind::kPosition || resolve_effector(chain, goals[0].effector) != 2)
+        return Message::format(
+            "two_bone takes exactly 1 goal, a position goal on the tip (effector 0 or 2); got %d goal(s)",
+            goals.size);
+      break;
+    case SolverKind::kCCD:
+      if (goals.size > kCcdMaxGoals)
+        return Message::format("ccd supports at most %d goals, got %d", kCcdMaxGoals, goals.size);
+      break;
+    case SolverKind::kJacobianPinv:
+    case SolverKind::kDLS:
+    case SolverKind::kBFGS:
+    case SolverKind::kFABRIK:
+      break;
+    default:
+      return Message::format("solver kind %d is unknown (0..%d)", static_cast<int>(kind), kSolverKindCount - 1);
+  }
+  return Message();
+}
+
 SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                   Workspace& ws, Eigen::Ref<Eigen::VectorXd> params) {
   using Clock = std::chrono::steady_clock;
@@ -184,7 +367,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     return result;
   };
 
-  result.message = validate_inputs(chain, goals, options, ws, params);
+  result.message = validate_inputs(kind, chain, goals, options, ws, params);
   if (!result.message.empty()) {
     result.reason = TerminationReason::kInvalidInput;
     return finish();
@@ -195,8 +378,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 
   // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured
   // here unless the solver measures it itself (solver_measures_start).
-  if (!options.warm_start) params.setZero();
-  project_to_limits(chain, p);
+  make_start_pose(chain, options, params);
   GoalErrors err;
   SolverStatus status;
   const bool self_measured = solver_measures_start(kind);
@@ -208,19 +390,10 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (!self_measured && err.within(options)) {
     status.reason = TerminationReason::kConverged;
   } else {
-    switch (kind) {
-      case SolverKind::kTwoBone: status = solve_two_bone(chain, goals, options, ws, p); break;
-      case SolverKind::kCCD: status = solve_ccd(chain, goals, options, ws, p); break;
-      case SolverKind::kJacobianPinv: status = solve_jacobian_pinv(chain, goals, options, ws, p); break;
-      case SolverKind::kDLS: status = solve_dls(chain, goals, options, ws, p); break;
-      case SolverKind::kBFGS: status = solve_bfgs(chain, goals, options, ws, p); break;
-      case SolverKind::kFABRIK: status = solve_fabrik(chain, goals, options, ws, p); break;
-      default:
-        status.reason = TerminationReason::kInvalidInput;
-        status.message = Message::format("solver kind %d is unknown", static_cast<int>(kind));
-    }
+    status = run_solver(kind, chain, goals, options, ws, p);
+    run_restarts(kind, chain, goals, options, ws, p, status, result.restarts);
   }
-  const GoalErrors& start_err = self_measured ? status.start : err;
+  const GoalErrors start_err = self_measured ? status.start : err;
   result.initial_error = start_err.combined;
   result.initial_position_error = start_err.max_position;
   result.initial_orientation_error = start_err.max_orientation;
@@ -229,15 +402,17 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   result.message = status.message;
 
   bool restored = false;
-  if (status.reason == TerminationReason::kInvalidInput || !params.allFinite()) {
-    // Nothing non-finite ever reaches the caller: the pose goes back to what it was.
-    params = ws.params_backup;
+  if (status.reason == TerminationReason::kInvalidInput) {
+    params = ws.params_backup;  // untouched, as promised for invalid input
     restored = true;
-    if (status.reason != TerminationReason::kInvalidInput) {
-      result.reason = TerminationReason::kStalled;
-      result.message = Message::format("%s produced a non-finite pose; the input pose was kept",
-                                       to_string(kind));
-    }
+  } else if (!params.allFinite()) {
+    // Nothing non-finite ever reaches the caller: back to the start pose (finite and within the
+    // limits; the caller's own pose may violate them).
+    params = ws.params_backup;
+    make_start_pose(chain, options, params);
+    restored = true;
+    result.reason = TerminationReason::kStalled;
+    result.message = Message::format("%s produced a non-finite pose; the start pose was kept", to_string(kind));
   }
 
   // The final pose's errors: the solver's own measurement when it is of exactly these params and
@@ -251,6 +426,15 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (trust_final) {
     err = status.final;
   } else {
+    forward_kinematics(chain, p, ws);
+    err = measure_goals(chain, goals, ws);
+  }
+  if (!restored && !(err.cost <= start_err.cost)) {
+    // Never worse than the start by the solve's own objective (or non-finite): a solver that ends
+    // above it (the pseudo-inverse stalling on an unreachable target with a limited root did) gives
+    // the start pose back.
+    params = ws.params_backup;
+    make_start_pose(chain, options, params);
     forward_kinematics(chain, p, ws);
     err = measure_goals(chain, goals, ws);
   }

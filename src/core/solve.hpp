@@ -21,5 +21,10 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals,
 // The checks solve() makes before running a solver; empty message when all is well.
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         const Workspace& workspace, const Eigen::Ref<const Eigen::VectorXd>& params);
+// The same plus the solver's own rules (a known kind; two-bone: exactly 2 joints and one tip
+// position goal; CCD: at most kCcdMaxGoals goals). solve() makes all of them before it looks at the
+// start pose, so an input gets the same verdict whatever the target.
+Message validate_inputs(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
+                        const Workspace& workspace, const Eigen::Ref<const Eigen::VectorXd>& params);
 
 }  // namespace ikchain

@@ -50,6 +50,7 @@ struct Workspace {
   Eigen::VectorXd params_backup;   // the caller's params, restored on failure
   Eigen::VectorXd params_trial;
   Eigen::VectorXd params_best;
+  Eigen::VectorXd params_restart_best;  // the best pose over the restarts of one solve
   Eigen::VectorXd step;
   Eigen::VectorXd gradient;
   Eigen::VectorXd gradient_trial;

@@ -712,6 +712,7 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
       goal_buffer_.assign(size_t(max_goals), Goal());
       params_ = Eigen::VectorXd::Zero(mapping_.chain().dof_count());
       params_from_last_solve_ = false;
+      have_good_pose_ = false;
       bone_poses_.assign(size_t(bones), BonePose());
       old_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
       new_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
@@ -860,7 +861,12 @@ bool IKChain::run(const gdx::Skeleton3D& skel) {
     set_invalid_result(update.error.c_str());
     return false;
   }
-  if (!assemble_goals(skel)) return false;
+  if (!assemble_goals(skel)) {
+    if (have_good_pose_)
+      for (int i = 0; i < n; ++i)
+        skel.set_bone_pose_rotation(mapping_.skeleton_bone(i), gdx::from_glm(new_rotations_[size_t(i)]));
+    return false;
+  }
 
   if (deterministic_) {
     params_.setZero();
@@ -879,12 +885,14 @@ bool IKChain::run(const gdx::Skeleton3D& skel) {
   }
   if (!mapping_.rotations_from_params(params_.data(), new_rotations_)) {
     params_from_last_solve_ = false;
+    have_good_pose_ = false;
     report_runtime(kNonFinite);
     set_invalid_result(kNonFinite);
     return false;
   }
   for (int i = 0; i < n; ++i)
     skel.set_bone_pose_rotation(mapping_.skeleton_bone(i), gdx::from_glm(new_rotations_[size_t(i)]));
+  have_good_pose_ = true;
 
   // The error of the pose the skeleton ends with: the skeleton blends our rotations with the
   // previous ones by `influence`, and a non-uniform scale makes the rigid chain approximate.

@@ -187,6 +187,9 @@ class IKChain {
   // Skeleton3D restores the animated pose before modifiers run, so the pose read each frame is the
   // animation's: a warm start continues from our own last solution instead (frame continuity).
   bool params_from_last_solve_ = false;
+  // new_rotations_ hold the last pose written: a skipped frame writes them again, since the
+  // skeleton would otherwise show the animated pose instead of the last good one.
+  bool have_good_pose_ = false;
   std::vector<Goal> goal_buffer_;  // sized at rebuild; the per-frame path fills it in place
   int goal_count_ = 0;
   // Extra goals resolved at rebuild: effector index and kind for each IKChainGoal.

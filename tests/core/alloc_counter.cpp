@@ -3,6 +3,15 @@
 #include <atomic>
 #include <cstddef>
 
+#if defined(__SANITIZE_ADDRESS__)
+// ASan owns malloc (interposing it here crashes its start-up): count through its allocator hook,
+// which sees every allocation, malloc and operator new alike.
+// From compiler-rt's <sanitizer/allocator_interface.h> (clang ships it, GCC does not).
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, std::size_t),
+                                                         void (*free_hook)(const volatile void*));
+#endif
+
+#if !defined(__SANITIZE_ADDRESS__)
 // Eigen allocates with std::malloc directly (not operator new), so the count is taken at malloc:
 // this executable's malloc family interposes glibc's and forwards to glibc's own entry points.
 // libstdc++'s operator new calls malloc, so containers are counted too.
@@ -13,6 +22,7 @@ void* __libc_realloc(void*, std::size_t);
 void* __libc_memalign(std::size_t, std::size_t);
 void __libc_free(void*);
 }
+#endif
 
 namespace {
 std::atomic<std::size_t> g_allocations{0};
@@ -24,6 +34,13 @@ std::size_t allocation_count() { return g_allocations.load(std::memory_order_rel
 }  // namespace test
 }  // namespace ikchain
 
+#if defined(__SANITIZE_ADDRESS__)
+namespace {
+void count_allocation(const volatile void*, std::size_t) { g_allocations.fetch_add(1, std::memory_order_relaxed); }
+void ignore_free(const volatile void*) {}
+[[maybe_unused]] const int g_hooks_installed = __sanitizer_install_malloc_and_free_hooks(count_allocation, ignore_free);
+}  // namespace
+#else
 extern "C" {
 void* malloc(std::size_t size) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
@@ -48,3 +65,4 @@ void* aligned_alloc(std::size_t alignment, std::size_t size) {
 }
 void free(void* p) { __libc_free(p); }
 }
+#endif

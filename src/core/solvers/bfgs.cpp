@@ -128,13 +128,7 @@ class Bfgs {
 
   // Hinge DOF `o` of limited joint `i` sits on a bound and descent would push it out.
   bool frozen(int joint, const Eigen::VectorXd& g) const {
-    if (chain_.joint_type(joint) != JointType::kHinge) return false;
-    const JointLimits& l = chain_.limits(joint);
-    if (!l.has_hinge_limit) return false;
-    const int o = chain_.dof_offset(joint);
-    constexpr double kOnBound = 1e-12;
-    return (x_[o] <= l.hinge_min + kOnBound && g[o] > 0.0) ||
-           (x_[o] >= l.hinge_max - kOnBound && g[o] < 0.0);
+    return hinge_blocked(chain_, joint, x_.data(), -g[chain_.dof_offset(joint)]);  // descent: -g
   }
 
   // Zeroes the frozen entries of `v` (given grad f at x in ws.gradient).

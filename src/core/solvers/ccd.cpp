@@ -47,7 +47,7 @@ namespace ikchain {
 
 namespace {
 
-constexpr int kMaxGoals = 16;
+constexpr int kMaxGoals = kCcdMaxGoals;
 
 // One tip-to-root sweep. ws holds forward kinematics of params on entry (the origins and frames
 // before joint j do not change while joints >= j move). Returns the largest rotation applied (rad).

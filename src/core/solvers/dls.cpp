@@ -69,7 +69,8 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
     if (it > 1 && ws.deadline.spent()) break;  // the time budget: kMaxIterations
     status.iterations = it;
     const double cost = model.cost();
-    const double predicted = model.damped_step(mu, ws.step.data());
+    const double predicted = jacobian::limit_aware_step(
+        chain, model, params, ws.step.data(), [&](double* step) { return model.damped_step(mu, step); });
     if (model.has_acceleration() && nu == 2.0) {
       // Geodesic acceleration (see SinglePositionModel::acceleration), skipped when the correction
       // dwarfs the step itself: the quadratic model is not to be trusted that far. Also skipped on

@@ -245,6 +245,15 @@ class SinglePositionModel {
     decomposed_ = false;
   }
 
+  // Active set (see limit_aware_step): DOF `dof` leaves J (its column is zeroed) until the next
+  // linearize(); refactor() then rebuilds J J^T from the remaining columns.
+  void freeze(int dof) { ws_.jacobian.col(dof).head(3).setZero(); }
+  void refactor() {
+    const auto J = ws_.jacobian.topLeftCorner(3, active_dofs_);
+    gram_.noalias() = J * J.transpose();
+    decomposed_ = false;
+  }
+
   // |J^T e|^2 = e^T (J J^T) e: zero at a stationary point (e.g. a straight chain pulled along itself).
   double gradient_norm2() const { return e_.dot(gram_ * e_); }
   // sqrt(trace(J J^T)) = |J|_F, the scale gradient_norm2 is judged against.
@@ -425,6 +434,13 @@ class GoalModel {
     compute_dof_axes(chain_, params, ws_);
     auto J = ws_.jacobian.topRows(m_);
     compute_jacobian(chain_, goals_, ws_, J);
+    refactor();
+  }
+  // Active set (see limit_aware_step): as SinglePositionModel's.
+  void freeze(int dof) { ws_.jacobian.col(dof).head(m_).setZero(); }
+  // The Gram matrix's eigen-decomposition and the projected residual of the current J.
+  void refactor() {
+    auto J = ws_.jacobian.topRows(m_);
     auto e = ws_.residual.head(m_);
     auto t = ws_.dof_vec_a.head(k_);
     if (row_form_) {
@@ -601,6 +617,42 @@ template <class Model>
 void keep_best(const Chain& chain, const Model& model, const Workspace& ws, double best_cost, double* params) {
   if (best_cost < model.cost())
     std::copy(ws.params_best.data(), ws.params_best.data() + chain.dof_count(), params);
+}
+
+// Limit-aware steps (an active set; the one mechanism DLS and the pseudo-inverse share, with the
+// predicate BFGS freezes by, hinge_blocked() in kinematics.hpp). Projecting a trial pose onto the
+// limits clips every component that pushes a joint resting on a limit further out: the step that
+// is left is not the one the linear model chose (its predicted decrease is wrong), DLS raises the
+// damping on the resulting rejections and the pseudo-inverse halves, until both stall on the
+// limit. Instead, a hinge DOF on a bound whose step pushes outward is frozen - its column leaves
+// J - and the step is solved again over the remaining DOFs, which then do the frozen joint's
+// share; repeated while the new step blocks further DOFs (at most kMaxFreezePasses). Components
+// that cross a bound from inside are still clipped by the projection, and that joint then rests
+// on its bound at the next linearisation. This is the active-set idea of projected Newton methods
+// (Bertsekas 1982, "Projected Newton methods for optimization problems with simple constraints")
+// applied to the Gauss-Newton / LM step. Ball joints' cone and twist limits stay projected.
+// `step_fn(step)` computes the model's step into `step` and returns what the solver needs of it
+// (DLS: the predicted decrease). The frozen columns stay out of J until the next linearize().
+constexpr int kMaxFreezePasses = 4;
+template <class Model, class StepFn>
+double limit_aware_step(const Chain& chain, Model& model, const double* params, double* step, StepFn&& step_fn) {
+  double out = step_fn(step);
+  if (!chain.any_limits()) return out;
+  const int active = model.active_dofs();
+  for (int pass = 0; pass < kMaxFreezePasses; ++pass) {
+    bool froze = false;
+    for (int i = 0; i < chain.joint_count() && chain.dof_offset(i) < active; ++i) {
+      const int o = chain.dof_offset(i);
+      if (step[o] != 0.0 && hinge_blocked(chain, i, params, step[o])) {
+        model.freeze(o);
+        froze = true;
+      }
+    }
+    if (!froze) break;
+    model.refactor();
+    out = step_fn(step);
+  }
+  return out;
 }
 
 // Relative improvements below stall_tolerance this many accepted steps in a row mean "stalled".

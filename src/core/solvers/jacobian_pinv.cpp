@@ -225,6 +225,12 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     // on the benchmark chains (seeds 11-80, with the escapes): taking the lenient step only when nothing passes, and
     // only at the last halving, misses 76 of 350000 targets at n = 3 (this rule: 0) and needs a
     // median of 10 iterations at n = 3 / 7 / 10 (this rule: 9).
+    // Joints on a limit the full step pushes outward leave J for this iteration, at every level
+    // (the active set, jacobian::limit_aware_step).
+    jacobian::limit_aware_step(chain, model, params, ws.step.data(), [&](double* step) {
+      model.pinv_step(o.pinv_singular_threshold, step);
+      return 0.0;
+    });
     double best_trial_cost = cost, best_s = 0.0, best_threshold = 0.0;
     bool evaluated_is_best = false;
     double last_threshold = -1.0;

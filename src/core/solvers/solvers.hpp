@@ -39,6 +39,10 @@ struct SolverStatus {
   bool final_measured = false;
 };
 
+// CCD tracks each goal's effector in a fixed array: more goals are rejected (solve() checks this
+// before anything else, so the verdict does not depend on the start pose).
+constexpr int kCcdMaxGoals = 16;
+
 // True for the solvers that measure the start pose themselves (see above): DLS.
 inline bool solver_measures_start(SolverKind kind) { return kind == SolverKind::kDLS; }
 

@@ -343,7 +343,7 @@ func test_joint_and_goal_misconfiguration_warnings() -> void:
 	ik.joints = [stray, bad_limits]
 	var g := IKChainGoal.new()
 	g.bone_name = "shin"
-	ik.goals = [g, 42]
+	ik.set("goals", [g, 42])  # untyped on purpose: an element that is no IKChainGoal
 	Rig.add_to(case_root, rig)
 	await frames(3)
 	var w := " | ".join(ik._get_configuration_warnings())

@@ -1,0 +1,319 @@
+// One regression test per class of finding of the core fuzzer (tests/fuzz/solve_fuzz.cpp), each
+// named after it, with the reproducer it was found with (or the smallest input of that class).
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/kinematics.hpp"
+#include "core/solve.hpp"
+#include "core/solvers/solvers.hpp"
+#include "test_util.hpp"
+
+namespace ikchain {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+bool contains(const Message& m, const char* needle) {
+  return std::string(m.c_str()).find(needle) != std::string::npos;
+}
+
+// Cost 0.5 * sum w |e|^2 of `params` by the core's own FK.
+double cost_of(const Chain& chain, const std::vector<Goal>& goals, const Eigen::VectorXd& params) {
+  Workspace ws(chain, static_cast<int>(goals.size()));
+  forward_kinematics(chain, params.data(), ws);
+  return measure_goals(chain, goals, ws).cost;
+}
+
+void expect_rejected_untouched(SolverKind kind, const Chain& chain, const std::vector<Goal>& goals,
+                               const SolverOptions& options, Eigen::VectorXd params, const char* needle) {
+  Workspace ws(chain, static_cast<int>(goals.size()));
+  const Eigen::VectorXd before = params;
+  const SolveResult r = solve(kind, chain, goals, options, ws, params);
+  EXPECT_EQ(r.reason, TerminationReason::kInvalidInput) << to_string(kind) << ": " << to_string(r.reason);
+  EXPECT_TRUE(contains(r.message, needle)) << "'" << r.message.c_str() << "' should name '" << needle << "'";
+  EXPECT_EQ(params, before);
+  EXPECT_TRUE(std::isfinite(r.final_error) && std::isfinite(r.initial_error));
+}
+
+// measure_goals took the worst error with std::max, which drops a NaN (max(0, NaN) == 0): a NaN
+// pose read as "every goal met".
+TEST(FuzzFindings, MeasureGoalsKeepsNaNErrors) {
+  const Chain chain = test::make_hinge_chain(2);
+  Workspace ws(chain, 2);
+  const Eigen::VectorXd p = Eigen::VectorXd::Zero(2);
+  forward_kinematics(chain, p.data(), ws);
+  ws.tip.x = kNaN;
+  ws.joint_orientations[1].w = kNaN;
+  // The NaN goal first and last: neither order may lose it.
+  const std::vector<Goal> goals{Goal::position(glm::dvec3(0, 2, 0)), Goal::orientation(glm::dquat(1, 0, 0, 0))};
+  const GoalErrors e = measure_goals(chain, goals, ws);
+  EXPECT_TRUE(std::isnan(e.max_position));
+  EXPECT_TRUE(std::isnan(e.max_orientation));
+  EXPECT_FALSE(e.within(SolverOptions()));
+  const std::vector<Goal> met_then_nan{Goal::position(ws.joint_origins[1], 1), Goal::position(glm::dvec3(0, 2, 0))};
+  EXPECT_TRUE(std::isnan(measure_goals(chain, met_then_nan, ws).max_position));
+}
+
+// Finite ball params of 1e155 have an infinite squared angle: FK was NaN everywhere, and the solve
+// said "converged", usable, with a NaN final error. Now rejected by name, pose untouched.
+TEST(FuzzFindings, HugeBallParamsRejected) {
+  const Chain chain = test::make_ball_chain(2);
+  const std::vector<Goal> goals{Goal::position(glm::dvec3(0.5, 1.0, 0.2))};
+  for (int k = 0; k < kSolverKindCount; ++k) {
+    if (static_cast<SolverKind>(k) == SolverKind::kTwoBone) continue;
+    Eigen::VectorXd p = Eigen::VectorXd::Zero(chain.dof_count());
+    p[1] = 1e155;
+    expect_rejected_untouched(static_cast<SolverKind>(k), chain, goals, SolverOptions(), p, "params[1]");
+  }
+  // The bound itself is accepted and gives a finite result.
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(chain.dof_count());
+  p[1] = kMaxMagnitude;
+  Workspace ws(chain, 1);
+  const SolveResult r = solve(SolverKind::kDLS, chain, goals, SolverOptions(), ws, p);
+  EXPECT_TRUE(r.usable()) << r.message.c_str();
+  EXPECT_TRUE(std::isfinite(r.final_error));
+  EXPECT_TRUE(p.allFinite());
+}
+
+// An aim axis of (1e200, 0, 0) has an infinite glm::length: normalising it gave the zero vector,
+// and the aim goal was "met" after 0 iterations.
+TEST(FuzzFindings, HugeAimAxisRejectedNotSilentlyMet) {
+  const Chain chain = test::make_ball_chain(2);
+  for (int k = 0; k < kSolverKindCount; ++k) {
+    if (static_cast<SolverKind>(k) == SolverKind::kTwoBone) continue;
+    const std::vector<Goal> axis{Goal::aim(glm::dvec3(1e200, 0, 0), glm::dvec3(0, 0, 1))};
+    expect_rejected_untouched(static_cast<SolverKind>(k), chain, axis, SolverOptions(),
+                              Eigen::VectorXd::Zero(chain.dof_count()), "aim_axis");
+    const std::vector<Goal> dir{Goal::aim(glm::dvec3(0, 1, 0), glm::dvec3(0, 0, -1e200))};
+    expect_rejected_untouched(static_cast<SolverKind>(k), chain, dir, SolverOptions(),
+                              Eigen::VectorXd::Zero(chain.dof_count()), "aim_direction");
+  }
+  // A large but bounded axis is a direction like any other: solved, and met by FK.
+  const std::vector<Goal> big{Goal::aim(glm::dvec3(0, 1e20, 0), glm::dvec3(0, 0, 1e20))};
+  Workspace ws(chain, 1);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(chain.dof_count());
+  const SolveResult r = solve(SolverKind::kDLS, chain, big, SolverOptions(), ws, p);
+  EXPECT_EQ(r.reason, TerminationReason::kConverged);
+  EXPECT_GT(r.iterations, 0);
+  forward_kinematics(chain, p.data(), ws);
+  const glm::dvec3 axis_in_base = effector_orientation(chain, ws, 0) * glm::dvec3(0, 1, 0);
+  EXPECT_NEAR(axis_in_base.z, 1.0, 1e-8);
+}
+
+// The solver's own rules (a known kind, two-bone's 2 joints and single tip goal, CCD's goal cap)
+// were checked inside the solver, which solve() skips when the start already meets the tolerance:
+// the same input was "converged" or "invalid_input" depending on the target.
+TEST(FuzzFindings, SolverRulesGiveTheSameVerdictWhateverTheStart) {
+  const Chain three = test::make_hinge_chain(3);
+  const Eigen::VectorXd p = Eigen::VectorXd::Zero(3);
+  const glm::dvec3 met = test::tip_of(three, p);
+  for (const glm::dvec3& target : {met, glm::dvec3(1.0, 1.0, 0.5)}) {
+    const std::vector<Goal> g{Goal::position(target)};
+    expect_rejected_untouched(SolverKind::kTwoBone, three, g, SolverOptions(), p, "exactly 2 joints");
+    expect_rejected_untouched(static_cast<SolverKind>(99), three, g, SolverOptions(), p, "solver kind 99");
+    expect_rejected_untouched(static_cast<SolverKind>(-1), three, g, SolverOptions(), p, "solver kind -1");
+    const std::vector<Goal> many(kCcdMaxGoals + 1, Goal::position(target));
+    expect_rejected_untouched(SolverKind::kCCD, three, many, SolverOptions(), p, "ccd supports at most");
+  }
+  const Chain two = test::make_hinge_chain(2);
+  const Eigen::VectorXd p2 = Eigen::VectorXd::Zero(2);
+  const std::vector<Goal> orientation{Goal::orientation(glm::dquat(1, 0, 0, 0))};  // met at rest
+  expect_rejected_untouched(SolverKind::kTwoBone, two, orientation, SolverOptions(), p2, "position goal on the tip");
+  // The cap itself is accepted when met at the start.
+  Workspace ws(three, kCcdMaxGoals);
+  const std::vector<Goal> cap(kCcdMaxGoals, Goal::position(met));
+  Eigen::VectorXd q = p;
+  EXPECT_EQ(solve(SolverKind::kCCD, three, cap, SolverOptions(), ws, q).reason, TerminationReason::kConverged);
+}
+
+// Found by the fuzzer's "never worse than the start" property: the pseudo-inverse, on an
+// unreachable target with a limited root, stalled at a pose of higher cost than its start (it
+// minimises the distance to the target clamped onto the reach sphere, not to the target).
+// solve() now gives the start pose back.
+TEST(FuzzFindings, PseudoInverseNeverWorseThanStart) {
+  ChainBuilder b;
+  for (int i = 0; i < 3; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    if (i == 0) {
+      j.limits.has_hinge_limit = true;
+      j.limits.hinge_min = -0.3;
+      j.limits.hinge_max = 0.3;
+    }
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain chain;
+  ASSERT_TRUE(b.build(chain).empty());
+  const std::vector<Goal> goals{
+      Goal::position(glm::dvec3(-4.8024093509053687, 0.7681347410697934, -4.020441898407074))};
+  Eigen::VectorXd start(3);
+  start << 0.3, 2.8885714472476072, -1.4326639561548049;
+  const double start_cost = cost_of(chain, goals, start);
+
+  // The reproducer: the solver alone ends worse than it started.
+  Workspace ws(chain, 1);
+  Eigen::VectorXd raw = start;
+  solve_jacobian_pinv(chain, goals, SolverOptions(), ws, raw.data());
+  ASSERT_GT(cost_of(chain, goals, raw), start_cost) << "no longer reproduces the solver's own behaviour";
+
+  // Through solve(): never worse, and the reported errors are the returned pose's.
+  Eigen::VectorXd p = start;
+  const SolveResult r = solve(SolverKind::kJacobianPinv, chain, goals, SolverOptions(), ws, p);
+  EXPECT_TRUE(r.usable());
+  EXPECT_LE(cost_of(chain, goals, p), start_cost);
+  EXPECT_NEAR(r.final_error, std::sqrt(2.0 * cost_of(chain, goals, p)), 1e-12);
+  EXPECT_LE(r.final_error, r.initial_error);
+}
+
+// The fall-back pose of a solve (non-finite result, or worse than the start) was the caller's
+// input, which may violate the limits; now it is the start pose, projected onto them. Same
+// reproducer as above, with a warm start whose root angle (1.0) is outside [-0.3, 0.3].
+TEST(FuzzFindings, FallbackPoseRespectsLimits) {
+  ChainBuilder b;
+  for (int i = 0; i < 3; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    if (i == 0) {
+      j.limits.has_hinge_limit = true;
+      j.limits.hinge_min = -0.3;
+      j.limits.hinge_max = 0.3;
+    }
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain chain;
+  ASSERT_TRUE(b.build(chain).empty());
+  const std::vector<Goal> goals{
+      Goal::position(glm::dvec3(-4.8024093509053687, 0.7681347410697934, -4.020441898407074))};
+  Eigen::VectorXd p(3);
+  p << 1.0, 2.8885714472476072, -1.4326639561548049;
+  Workspace ws(chain, 1);
+  const SolveResult r = solve(SolverKind::kJacobianPinv, chain, goals, SolverOptions(), ws, p);
+  EXPECT_TRUE(r.usable());
+  EXPECT_TRUE(within_limits(chain, p.data()));
+  EXPECT_EQ(p[0], 0.3);
+}
+
+// A rest rotation of (1e200, 0, 0, 1e200) has an infinite glm::length: it was stored as the zero
+// quaternion (FK collapsed every later bone onto its joint). Its direction is what counts.
+TEST(FuzzFindings, HugeRestRotationStoredNormalised) {
+  ChainBuilder b;
+  JointDesc j;
+  j.type = JointType::kHinge;
+  j.rest_rotation = glm::dquat(1e200, 0, 0, 1e200);  // w, x, y, z: 90 degrees about z
+  b.add_joint(j).set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain chain;
+  ASSERT_TRUE(b.build(chain).empty());
+  const glm::dquat& r = chain.rest_rotation(0);
+  EXPECT_NEAR(r.w, std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(r.z, std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(chain.rest_tip().x, -1.0, 1e-15);
+  EXPECT_NEAR(chain.rest_tip().y, 0.0, 1e-15);
+  // Zero and non-finite stay rejected.
+  for (const glm::dquat& bad : {glm::dquat(0, 0, 0, 0), glm::dquat(kNaN, 0, 0, 1)}) {
+    ChainBuilder z;
+    JointDesc k;
+    k.rest_rotation = bad;
+    z.add_joint(k).set_tip_offset(glm::dvec3(0, 1, 0));
+    Chain c;
+    EXPECT_TRUE(contains(z.build(c), "joint 0: rest_rotation"));
+    EXPECT_FALSE(c.valid());
+  }
+}
+
+// Offsets of 1e200 gave bone lengths and a chain length of inf (and every error inf). Coordinates
+// beyond +-kMaxMagnitude are rejected, naming the joint and field.
+TEST(FuzzFindings, HugeOffsetsRejectedNotInfiniteLength) {
+  ChainBuilder b;
+  JointDesc j;
+  b.add_joint(j);
+  j.offset_translation = glm::dvec3(1e200, 0, 0);
+  b.add_joint(j).set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain chain;
+  EXPECT_TRUE(contains(b.build(chain), "joint 1: offset_translation"));
+  EXPECT_FALSE(chain.valid());
+
+  ChainBuilder t;
+  t.add_joint(JointDesc()).set_tip_offset(glm::dvec3(0, -1e51, 0));
+  EXPECT_TRUE(contains(t.build(chain), "tip_offset"));
+
+  // At the bound: builds, with finite lengths.
+  ChainBuilder ok;
+  JointDesc far;
+  ok.add_joint(far);
+  far.offset_translation = glm::dvec3(kMaxMagnitude, -kMaxMagnitude, kMaxMagnitude);
+  ok.add_joint(far).set_tip_offset(far.offset_translation);
+  ASSERT_TRUE(ok.build(chain).empty());
+  EXPECT_TRUE(std::isfinite(chain.total_length()));
+  EXPECT_NEAR(chain.total_length(), 2.0 * std::sqrt(3.0) * kMaxMagnitude, 1e-12 * kMaxMagnitude);
+}
+
+// Targets and weights large enough to overflow the squared errors gave inf results.
+TEST(FuzzFindings, HugeTargetsAndWeightsRejected) {
+  const Chain chain = test::make_hinge_chain(2);
+  const Eigen::VectorXd p = Eigen::VectorXd::Zero(2);
+  expect_rejected_untouched(SolverKind::kDLS, chain, {Goal::position(glm::dvec3(0, 1e200, 0))}, SolverOptions(), p,
+                            "target_position");
+  expect_rejected_untouched(SolverKind::kDLS, chain, {Goal::position(glm::dvec3(0, 1, 0), 0, 1e300)},
+                            SolverOptions(), p, "weight");
+  SolverOptions pole;
+  pole.two_bone_use_pole = true;
+  pole.pole_y = 1e200;
+  expect_rejected_untouched(SolverKind::kTwoBone, chain, {Goal::position(glm::dvec3(0, 1, 0))}, pole, p, "pole");
+  // The bounds themselves are valid: unreachable, finite.
+  Workspace ws(chain, 1);
+  Eigen::VectorXd q = p;
+  const std::vector<Goal> far{Goal::position(glm::dvec3(0, kMaxMagnitude, -kMaxMagnitude), 0, kMaxWeight)};
+  const SolveResult r = solve(SolverKind::kDLS, chain, far, SolverOptions(), ws, q);
+  EXPECT_TRUE(r.usable()) << r.message.c_str();
+  EXPECT_NE(r.reason, TerminationReason::kConverged);
+  EXPECT_TRUE(std::isfinite(r.final_error));
+  EXPECT_TRUE(q.allFinite());
+}
+
+// A ball joint's hinge_axis (and a hinge's twist_axis) was stored as given, NaN included: a chain
+// that built held non-finite data. The unused axis is stored as its default.
+TEST(FuzzFindings, UnusedAxesStoredAsDefaults) {
+  ChainBuilder b;
+  JointDesc ball;
+  ball.type = JointType::kBall;
+  ball.hinge_axis = glm::dvec3(kNaN, 0, 0);
+  JointDesc hinge;
+  hinge.type = JointType::kHinge;
+  hinge.offset_translation = glm::dvec3(0, 1, 0);
+  hinge.limits.twist_axis = glm::dvec3(0, kNaN, 0);
+  b.add_joint(ball).add_joint(hinge).set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain chain;
+  ASSERT_TRUE(b.build(chain).empty());
+  EXPECT_TRUE(so3::finite(chain.hinge_axis(0)));
+  EXPECT_TRUE(so3::finite(chain.limits(1).twist_axis));
+  // A huge but finite axis is a direction: normalised, not rejected as "infinite".
+  ChainBuilder h;
+  JointDesc big;
+  big.type = JointType::kHinge;
+  big.hinge_axis = glm::dvec3(0, 0, 1e300);
+  h.add_joint(big).set_tip_offset(glm::dvec3(0, 1, 0));
+  ASSERT_TRUE(h.build(chain).empty());
+  EXPECT_EQ(chain.hinge_axis(0), glm::dvec3(0, 0, 1));
+}
+
+// pinv_max_halvings was unbounded: 1e7 took 79 s for one solve.
+TEST(FuzzFindings, PinvMaxHalvingsBounded) {
+  SolverOptions o;
+  o.pinv_max_halvings = 10000000;
+  EXPECT_TRUE(contains(o.validate(), "pinv_max_halvings must be in [0, 60], got 10000000"));
+  o.pinv_max_halvings = kMaxPinvHalvings;
+  EXPECT_TRUE(o.validate().empty());
+  o.pinv_max_halvings = -1;
+  EXPECT_TRUE(contains(o.validate(), "pinv_max_halvings"));
+}
+
+}  // namespace
+}  // namespace ikchain

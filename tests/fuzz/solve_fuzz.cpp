@@ -1,0 +1,421 @@
+// libFuzzer target over the core's public entry points: ChainBuilder::build and solve(), every
+// solver, with hostile chains, goals, options and start poses. Built by `scripts/fuzz` with clang
+// (-fsanitize=fuzzer,address,undefined); any violated property aborts with a message naming it.
+//
+// Properties (each an abort when broken):
+//  - no crash and no sanitizer report;
+//  - a chain that builds derives only finite data (lengths, unit rest rotations, rest-pose FK);
+//    a build that fails says why;
+//  - no NaN/inf in any output (result fields, params);
+//  - invalid input: params bit-identical to the input and a non-empty message;
+//  - iterations <= max_iterations;
+//  - solving the same input again on the same workspace gives the same verdict and pose, bit for bit;
+//  - the returned pose respects the joint limits;
+//  - "converged" => every goal within tolerance by an independent FK (plain GLM, none of the core's
+//    fast paths), and the reported final error agrees with that FK;
+//  - the returned pose is never worse than the start pose by the solve's own objective
+//    0.5 * sum w |e|^2, both measured by the independent FK.
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include <fuzzer/FuzzedDataProvider.h>
+
+#include "core/ikchain.hpp"
+#include "core/kinematics.hpp"
+
+using namespace ikchain;
+
+namespace {
+
+[[noreturn]] void fail(const char* what, double a = 0.0, double b = 0.0) {
+  std::fprintf(stderr, "FUZZ PROPERTY VIOLATED: %s (%.17g, %.17g)\n", what, a, b);
+  std::abort();
+}
+#define REQUIRE(cond, ...) \
+  do {                     \
+    if (!(cond)) fail(__VA_ARGS__); \
+  } while (0)
+
+// A double that is usually ordinary (within +-scale) and sometimes hostile.
+double pick(FuzzedDataProvider& d, double scale) {
+  switch (d.ConsumeIntegralInRange<int>(0, 15)) {
+    case 0: return 0.0;
+    case 1: return std::numeric_limits<double>::quiet_NaN();
+    case 2: return std::numeric_limits<double>::infinity();
+    case 3: return -std::numeric_limits<double>::infinity();
+    case 4: return (d.ConsumeBool() ? 1 : -1) * std::pow(10.0, d.ConsumeIntegralInRange<int>(3, 308));
+    case 5: return (d.ConsumeBool() ? 1 : -1) * std::pow(10.0, -d.ConsumeIntegralInRange<int>(3, 320));
+    case 6: {
+      const uint64_t bits = d.ConsumeIntegral<uint64_t>();
+      double v;
+      std::memcpy(&v, &bits, sizeof v);
+      return v;
+    }
+    case 7: return scale;
+    default: return d.ConsumeFloatingPointInRange<double>(-scale, scale);
+  }
+}
+
+// Mostly ordinary values: a hostile component only when the fuzzer asks for one.
+double pick_mostly(FuzzedDataProvider& d, double scale) {
+  return d.ConsumeIntegralInRange<int>(0, 3) == 0 ? pick(d, scale)
+                                                  : d.ConsumeFloatingPointInRange<double>(-scale, scale);
+}
+
+glm::dvec3 pick_vec(FuzzedDataProvider& d, double scale) {
+  const double x = pick_mostly(d, scale), y = pick_mostly(d, scale), z = pick_mostly(d, scale);
+  return glm::dvec3(x, y, z);
+}
+
+bool all_finite(double v) { return std::isfinite(v); }
+bool all_finite(const glm::dvec3& v) { return all_finite(v.x) && all_finite(v.y) && all_finite(v.z); }
+bool all_finite(const glm::dquat& q) { return all_finite(q.w) && all_finite(q.x) && all_finite(q.y) && all_finite(q.z); }
+
+// ---------------------------------------------------------------- independent forward kinematics
+// The chain's definition (chain.hpp) in plain GLM: no direction codes, no fast sincos, no cached
+// rest pose. Computed from the JointDescs as given (rest rotations normalised here).
+struct Pose {
+  std::vector<glm::dvec3> origins;
+  std::vector<glm::dquat> orientations;
+  glm::dvec3 tip{0.0};
+};
+
+// Normalised without overflow in the squares: divide by the largest component first.
+template <typename V>
+V unit(const V& v) {
+  double m = 0.0;
+  for (int i = 0; i < V::length(); ++i) m = std::max(m, std::abs(v[i]));
+  return glm::normalize(v / m);
+}
+
+Pose reference_fk(const std::vector<JointDesc>& joints, const glm::dvec3& tip_offset, const double* params) {
+  Pose pose;
+  glm::dvec3 origin(0.0);
+  glm::dquat q(1.0, 0.0, 0.0, 0.0);
+  int o = 0;
+  for (const JointDesc& j : joints) {
+    origin += q * j.offset_translation;
+    q = q * unit(j.rest_rotation);
+    if (j.type == JointType::kHinge) {
+      q = q * glm::angleAxis(params[o], unit(j.hinge_axis));
+      o += 1;
+    } else {
+      const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
+      const double angle = glm::length(r);
+      if (angle > 0.0) q = q * glm::angleAxis(angle, r / angle);
+      o += 3;
+    }
+    pose.origins.push_back(origin);
+    pose.orientations.push_back(q);
+  }
+  pose.tip = origin + q * tip_offset;
+  return pose;
+}
+
+struct Errors {
+  double cost = 0.0;  // 0.5 * sum w |e|^2
+  double max_position = 0.0;
+  double max_orientation = 0.0;
+};
+
+double angle_between(const glm::dvec3& a, const glm::dvec3& b) {
+  return std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
+}
+
+Errors reference_errors(const Pose& pose, const std::vector<Goal>& goals) {
+  Errors out;
+  const int n = static_cast<int>(pose.origins.size());
+  for (const Goal& g : goals) {
+    const int k = g.effector <= 0 ? n : g.effector;
+    const glm::dquat eff_q = pose.orientations[k - 1];
+    double e = 0.0;
+    switch (g.kind) {
+      case GoalKind::kPosition:
+        e = glm::length(g.target_position - (k == n ? pose.tip : pose.origins[k]));
+        out.max_position = std::max(out.max_position, e);
+        break;
+      case GoalKind::kOrientation: {
+        const glm::dquat d = glm::normalize(g.target_orientation) * glm::conjugate(eff_q);
+        e = 2.0 * std::atan2(glm::length(glm::dvec3(d.x, d.y, d.z)), std::abs(d.w));
+        out.max_orientation = std::max(out.max_orientation, e);
+        break;
+      }
+      case GoalKind::kAim:
+        e = angle_between(glm::normalize(eff_q * g.aim_axis), glm::normalize(g.aim_direction));
+        out.max_orientation = std::max(out.max_orientation, e);
+        break;
+    }
+    out.cost += 0.5 * g.weight * e * e;
+  }
+  return out;
+}
+
+// With IKCHAIN_FUZZ_STATS set, how many inputs ended in each verdict, per solver (printed at exit):
+// shows that the fuzzer gets past validation into every solver, not only into the rejections.
+long g_verdicts[kSolverKindCount + 1][5] = {};
+void print_stats() {
+  std::fprintf(stderr, "verdicts per solver (converged max_iterations stalled unreachable invalid_input):\n");
+  for (int k = 0; k <= kSolverKindCount; ++k) {
+    std::fprintf(stderr, "  %-14s", k < kSolverKindCount ? to_string(static_cast<SolverKind>(k)) : "unknown kind");
+    for (long v : g_verdicts[k]) std::fprintf(stderr, " %8ld", v);
+    std::fprintf(stderr, "\n");
+  }
+}
+void count(SolverKind kind, TerminationReason reason) {
+  static const bool enabled = [] {
+    const bool on = std::getenv("IKCHAIN_FUZZ_STATS") != nullptr;
+    if (on) std::atexit(print_stats);
+    return on;
+  }();
+  if (!enabled) return;
+  const int k = static_cast<int>(kind);
+  ++g_verdicts[k >= 0 && k < kSolverKindCount ? k : kSolverKindCount][static_cast<int>(reason)];
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  FuzzedDataProvider d(data, size);
+
+  // ---------------------------------------------------------------- the chain
+  const int size_class = d.ConsumeIntegralInRange<int>(0, 15);
+  const int n = size_class < 14 ? d.ConsumeIntegralInRange<int>(0, 12) : d.ConsumeIntegralInRange<int>(0, 200);
+  std::vector<JointDesc> joints(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    JointDesc& j = joints[i];
+    const int type = d.ConsumeIntegralInRange<int>(0, 8);
+    j.type = type < 4 ? JointType::kBall : type < 8 ? JointType::kHinge : static_cast<JointType>(7);
+    if (i > 0 || d.ConsumeBool()) j.offset_translation = pick_vec(d, 2.0);
+    if (d.ConsumeBool()) {
+      j.rest_rotation = glm::dquat(pick_mostly(d, 2.0), pick_mostly(d, 2.0), pick_mostly(d, 2.0), pick_mostly(d, 2.0));
+    }
+    if (d.ConsumeBool()) j.hinge_axis = pick_vec(d, 1.0);
+    const uint8_t lim = d.ConsumeIntegral<uint8_t>();
+    JointLimits& l = j.limits;
+    if (lim & 1) {
+      l.has_hinge_limit = true;
+      l.hinge_min = pick_mostly(d, 4.0);
+      l.hinge_max = pick_mostly(d, 4.0);
+    }
+    if (lim & 2) {
+      l.has_cone_limit = true;
+      l.cone_angle = pick_mostly(d, 4.0);
+    }
+    if (lim & 4) {
+      l.has_twist_limit = true;
+      l.twist_min = pick_mostly(d, 4.0);
+      l.twist_max = pick_mostly(d, 4.0);
+    }
+    if (lim & 8) l.twist_axis = pick_vec(d, 1.0);
+  }
+  const glm::dvec3 tip_offset = d.ConsumeBool() ? pick_vec(d, 2.0) : glm::dvec3(0.0, 1.0, 0.0);
+
+  ChainBuilder builder;
+  for (const JointDesc& j : joints) builder.add_joint(j);
+  builder.set_tip_offset(tip_offset);
+  Chain chain;
+  const Message built = builder.build(chain);
+  if (!built.empty()) {
+    REQUIRE(!chain.valid(), "a failed build left a valid chain");
+  } else {
+    REQUIRE(chain.valid() && chain.joint_count() == n, "build succeeded but the chain is not valid");
+  }
+
+  // Derived data of a chain that builds: all finite, rest rotations unit.
+  if (chain.valid()) {
+    REQUIRE(all_finite(chain.total_length()) && chain.total_length() > 0.0, "total_length", chain.total_length());
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+      REQUIRE(all_finite(chain.bone_length(i)), "bone_length", i, chain.bone_length(i));
+      sum += chain.bone_length(i);
+      const glm::dquat& r = chain.rest_rotation(i);
+      REQUIRE(all_finite(r) && std::abs(glm::length(r) - 1.0) < 1e-9, "rest_rotation not unit", i, glm::length(r));
+      REQUIRE(all_finite(chain.rest_joint_origins()[i]), "rest joint origin", i);
+      REQUIRE(all_finite(chain.hinge_axis(i)), "hinge_axis", i);
+      REQUIRE(all_finite(chain.limits(i).twist_axis), "twist_axis", i);
+    }
+    REQUIRE(all_finite(sum), "bone lengths sum", sum);
+    for (const glm::dvec3& a : chain.rest_dof_axes()) REQUIRE(all_finite(a), "rest dof axis");
+    REQUIRE(all_finite(chain.rest_tip()), "rest tip");
+  }
+
+  // ---------------------------------------------------------------- the goals
+  const int goal_count = d.ConsumeIntegralInRange<int>(0, 5);
+  std::vector<Goal> goals(static_cast<size_t>(goal_count));
+  const double reach = chain.valid() ? chain.total_length() : 2.0;
+  for (Goal& g : goals) {
+    const int kind = d.ConsumeIntegralInRange<int>(0, 12);
+    g.kind = kind < 6 ? GoalKind::kPosition : kind < 9 ? GoalKind::kOrientation : kind < 12 ? GoalKind::kAim
+                                                                                          : static_cast<GoalKind>(9);
+    g.effector = d.ConsumeIntegralInRange<int>(0, 7) == 0 ? d.ConsumeIntegralInRange<int>(-3, n + 3)
+                                                          : d.ConsumeIntegralInRange<int>(0, n > 0 ? n : 0);
+    g.weight = d.ConsumeIntegralInRange<int>(0, 3) == 0 ? pick(d, 10.0) : 1.0;
+    g.target_position = pick_vec(d, 1.5 * reach);
+    g.target_orientation =
+        glm::dquat(pick_mostly(d, 1.0), pick_mostly(d, 1.0), pick_mostly(d, 1.0), pick_mostly(d, 1.0));
+    g.aim_axis = pick_vec(d, 1.0);
+    g.aim_direction = pick_vec(d, 1.0);
+  }
+
+  // ---------------------------------------------------------------- the options
+  SolverOptions o;
+  const uint32_t mask = d.ConsumeIntegral<uint32_t>();
+  auto maybe = [&](int bit) { return (mask >> bit) & 1u; };
+  // Bounded: a legal budget of 2^31 iterations is the caller's choice, not a finding.
+  if (maybe(0)) o.max_iterations = d.ConsumeIntegralInRange<int>(-2, 300);
+  if (maybe(1)) o.position_tolerance = pick(d, 1e-3);
+  if (maybe(2)) o.orientation_tolerance = pick(d, 1e-3);
+  if (maybe(3)) o.stall_tolerance = pick(d, 1e-6);
+  if (maybe(4)) o.warm_start = false;
+  if (maybe(5)) o.max_step_angle = pick(d, 1.0);
+  if (maybe(6)) o.pinv_residual_tolerance = pick(d, 1.0);
+  if (maybe(7)) {
+    o.pinv_max_halvings = d.ConsumeBool() ? d.ConsumeIntegralInRange<int>(-2, 100) : d.ConsumeIntegral<int>();
+  }
+  if (maybe(8)) o.pinv_singular_threshold = pick(d, 1e-6);
+  if (maybe(9)) o.dls_initial_damping = pick(d, 1.0);
+  if (maybe(10)) o.dls_min_damping = pick(d, 1e-6);
+  if (maybe(11)) o.dls_max_damping = pick(d, 1e6);
+  if (maybe(12)) o.bfgs_wolfe_c1 = pick(d, 1.0);
+  if (maybe(13)) o.bfgs_wolfe_c2 = pick(d, 1.0);
+  if (maybe(14)) {
+    o.bfgs_max_line_search_steps =
+        d.ConsumeBool() ? d.ConsumeIntegralInRange<int>(-2, 100) : d.ConsumeIntegral<int>();
+  }
+  if (maybe(15)) {
+    o.two_bone_use_pole = true;
+    o.pole_x = pick_mostly(d, reach);
+    o.pole_y = pick_mostly(d, reach);
+    o.pole_z = pick_mostly(d, reach);
+  }
+  const SolverKind kind = static_cast<SolverKind>(d.ConsumeIntegralInRange<int>(-1, kSolverKindCount));
+
+  // ---------------------------------------------------------------- workspace and start pose
+  const int ws_goals = maybe(16) ? d.ConsumeIntegralInRange<int>(0, 5) : goal_count;
+  Workspace ws;
+  if (chain.valid()) ws.reset(chain, ws_goals);
+  const int dofs = chain.valid() ? chain.dof_count() : 0;
+  const int param_count = maybe(17) ? d.ConsumeIntegralInRange<int>(0, dofs + 2) : dofs;
+  Eigen::VectorXd params = Eigen::VectorXd::Zero(param_count);
+  if (maybe(18)) {
+    for (int i = 0; i < param_count; ++i) params[i] = pick_mostly(d, 3.5);
+  }
+  const Eigen::VectorXd input = params;
+
+  // ---------------------------------------------------------------- the solve
+  const SolveResult r = solve(kind, chain, goals, o, ws, params);
+  count(kind, r.reason);
+  if (std::getenv("IKCHAIN_FUZZ_DUMP")) {  // the decoded input, to turn a finding into a test
+    std::fprintf(stderr, "chain: %d joints, build '%s'\n", n, built.c_str());
+    for (int i = 0; i < n; ++i) {
+      const JointDesc& j = joints[i];
+      const JointLimits& l = j.limits;
+      std::fprintf(stderr,
+                   "  joint %d type %d offset (%.17g, %.17g, %.17g) rest (%.17g, %.17g, %.17g, %.17g) hinge_axis "
+                   "(%.17g, %.17g, %.17g)\n    hinge %d [%.17g, %.17g] cone %d %.17g twist %d [%.17g, %.17g] "
+                   "twist_axis (%.17g, %.17g, %.17g)\n",
+                   i, static_cast<int>(j.type), j.offset_translation.x, j.offset_translation.y,
+                   j.offset_translation.z, j.rest_rotation.w, j.rest_rotation.x, j.rest_rotation.y, j.rest_rotation.z,
+                   j.hinge_axis.x, j.hinge_axis.y, j.hinge_axis.z, l.has_hinge_limit, l.hinge_min, l.hinge_max,
+                   l.has_cone_limit, l.cone_angle, l.has_twist_limit, l.twist_min, l.twist_max, l.twist_axis.x,
+                   l.twist_axis.y, l.twist_axis.z);
+    }
+    std::fprintf(stderr, "  tip_offset (%.17g, %.17g, %.17g)\n", tip_offset.x, tip_offset.y, tip_offset.z);
+    for (const Goal& g : goals) {
+      std::fprintf(stderr,
+                   "goal kind %d effector %d weight %.17g pos (%.17g, %.17g, %.17g) q (%.17g, %.17g, %.17g, %.17g) "
+                   "aim (%.17g, %.17g, %.17g) -> (%.17g, %.17g, %.17g)\n",
+                   static_cast<int>(g.kind), g.effector, g.weight, g.target_position.x, g.target_position.y,
+                   g.target_position.z, g.target_orientation.w, g.target_orientation.x, g.target_orientation.y,
+                   g.target_orientation.z, g.aim_axis.x, g.aim_axis.y, g.aim_axis.z, g.aim_direction.x,
+                   g.aim_direction.y, g.aim_direction.z);
+    }
+    std::fprintf(stderr,
+                 "options: max_iterations %d pos_tol %.17g ori_tol %.17g stall %.17g warm %d max_step %.17g "
+                 "pinv_res %.17g halvings %d pinv_sing %.17g dls %.17g/%.17g/%.17g wolfe %.17g/%.17g ls %d pole %d "
+                 "(%.17g, %.17g, %.17g)\n",
+                 o.max_iterations, o.position_tolerance, o.orientation_tolerance, o.stall_tolerance, o.warm_start,
+                 o.max_step_angle, o.pinv_residual_tolerance, o.pinv_max_halvings, o.pinv_singular_threshold,
+                 o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping, o.bfgs_wolfe_c1, o.bfgs_wolfe_c2,
+                 o.bfgs_max_line_search_steps, o.two_bone_use_pole, o.pole_x, o.pole_y, o.pole_z);
+    std::fprintf(stderr, "solver %d, workspace goals %d, params:", static_cast<int>(kind), ws_goals);
+    for (int i = 0; i < input.size(); ++i) std::fprintf(stderr, " %.17g", input[i]);
+    std::fprintf(stderr, "\nresult: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
+                 r.iterations, r.initial_error, r.final_error, r.message.c_str());
+    for (int i = 0; i < params.size(); ++i) std::fprintf(stderr, " %.17g", params[i]);
+    std::fprintf(stderr, "\n");
+  }
+
+  REQUIRE(all_finite(r.initial_error) && all_finite(r.final_error) && all_finite(r.initial_position_error) &&
+              all_finite(r.final_position_error) && all_finite(r.initial_orientation_error) &&
+              all_finite(r.final_orientation_error) && all_finite(r.elapsed_us),
+          "non-finite result field", r.initial_error, r.final_error);
+  REQUIRE(r.iterations >= 0, "negative iterations", r.iterations);
+
+  if (r.reason == TerminationReason::kInvalidInput) {
+    REQUIRE(!r.message.empty(), "invalid_input without a message");
+    REQUIRE(!r.usable(), "invalid_input but usable");
+    REQUIRE(params.size() == input.size() &&
+                (input.size() == 0 ||
+                 std::memcmp(params.data(), input.data(), sizeof(double) * input.size()) == 0),
+            "invalid_input changed params");
+    return 0;
+  }
+
+  // A usable result: the input was valid, so the chain built and everything below is defined.
+  REQUIRE(chain.valid() && o.validate().empty() && goal_count > 0, "usable result for invalid input");
+  REQUIRE(r.iterations <= o.max_iterations, "iterations > max_iterations", r.iterations, o.max_iterations);
+  REQUIRE(params.allFinite(), "non-finite params");
+  REQUIRE(within_limits(chain, params.data(), 1e-6), "returned pose violates the limits");
+
+  // The same input again, on the same (now dirty) workspace: the same verdict and pose, bit for bit
+  // (nothing may depend on what a previous solve left in the workspace).
+  {
+    Eigen::VectorXd again = input;
+    const SolveResult r2 = solve(kind, chain, goals, o, ws, again);
+    REQUIRE(r2.reason == r.reason && r2.iterations == r.iterations, "a repeated solve gave another verdict",
+            static_cast<double>(r.reason), static_cast<double>(r2.reason));
+    REQUIRE(std::memcmp(again.data(), params.data(), sizeof(double) * params.size()) == 0,
+            "a repeated solve gave another pose");
+  }
+
+  // The start pose, as solve() defines it: the input (warm) or rest, projected onto the limits.
+  Eigen::VectorXd start = o.warm_start ? input : Eigen::VectorXd::Zero(dofs);
+  project_to_limits(chain, start.data());
+
+  const Pose start_pose = reference_fk(joints, tip_offset, start.data());
+  const Pose final_pose = reference_fk(joints, tip_offset, params.data());
+  const Errors e0 = reference_errors(start_pose, goals);
+  const Errors e1 = reference_errors(final_pose, goals);
+
+  // Rounding allowance of two FK implementations on this chain and these goals: a few ulps of the
+  // largest coordinate involved, per joint.
+  double scale = glm::length(chain.root_in_base()) + chain.total_length();
+  double weights = 0.0;
+  for (const Goal& g : goals) {
+    if (g.kind == GoalKind::kPosition) scale = std::max(scale, glm::length(g.target_position));
+    weights += g.weight;
+  }
+  const double pos_slack = 1e-12 * (n + 1) * (1.0 + scale);
+  const double rot_slack = 1e-10 * (n + 1);
+
+  REQUIRE(std::abs(std::sqrt(2.0 * e1.cost) - r.final_error) <=
+              1e-6 * (1.0 + r.final_error) + std::sqrt(weights) * (pos_slack + rot_slack),
+          "final_error disagrees with an independent FK", r.final_error, std::sqrt(2.0 * e1.cost));
+
+  if (r.reason == TerminationReason::kConverged) {
+    REQUIRE(e1.max_position <= o.position_tolerance + pos_slack, "converged but a position goal is not met",
+            e1.max_position, o.position_tolerance);
+    REQUIRE(e1.max_orientation <= o.orientation_tolerance + rot_slack,
+            "converged but an orientation/aim goal is not met", e1.max_orientation, o.orientation_tolerance);
+  }
+
+  const double cost_slack = 1e-9 * e0.cost + weights * (pos_slack + rot_slack) * (1.0 + std::sqrt(2.0 * e0.cost));
+  REQUIRE(e1.cost <= e0.cost + cost_slack, "returned pose worse than the start pose", e0.cost, e1.cost);
+  return 0;
+}

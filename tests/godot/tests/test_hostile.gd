@@ -1,0 +1,423 @@
+# Hostile inputs at run time: nodes freed or moved while the chain solves, skeletons edited under
+# it, degenerate skeletons, wrongly typed property values, non-finite targets. Each case: no crash
+# (the runner fails the file on one), no leak, no NaN in any bone pose, a clear error naming the
+# problem where there is one (declared with expect_error, so an unexpected or missing one fails),
+# and a chain that works again once the problem is gone.
+#
+# Cases named pending_* state the wanted behaviour but fail against today's node (src/godot/
+# ik_chain.*), so the runner (which runs test_*) skips them; rename one to test_* once the node
+# handles it. Today: a renamed tip bone is not noticed (the cached chain keeps solving, no error);
+# a zero-scale skeleton is reported as "the target's position is not finite" (the pose stays
+# finite, but the message blames the target); set("max_iterations", "abc") is silently ignored.
+extends "res://lib/ik_test.gd"
+
+const Arm := preload("res://lib/arm.gd")
+const Rig := preload("res://lib/rig.gd")
+
+
+# ------------------------------------------------------------------ helpers
+
+func _rig(seed_value: int, solver := IKChain.SOLVER_DLS) -> Dictionary:
+	var rng := RandomNumberGenerator.new()
+	rng.seed = seed_value
+	var rig := Rig.make(3, solver, Arm.fk_tip_world(3, Arm.random_rotations(rng, 3)))
+	return rig
+
+
+## Every bone's global pose finite.
+func _check_finite(skel: Skeleton3D, what: String) -> void:
+	for i in skel.get_bone_count():
+		if not check(transform_is_finite(skel.get_bone_global_pose(i)),
+				"%s: bone %s global pose is finite" % [what, skel.get_bone_name(i)]):
+			return
+	check(true, what)
+
+
+## The tip (bone "tip") reaches `goal` (world) in the pose seen inside the next skeleton updates.
+func _check_reaches(skel: Skeleton3D, ik: IKChain, goal: Vector3, what: String) -> void:
+	var cap := {}
+	var grab := func():
+		cap["tip"] = Arm.tip_world(skel)
+		cap["reason"] = ik.get_last_result().get("reason")
+	skel.skeleton_updated.connect(grab)
+	await frames(3)
+	skel.skeleton_updated.disconnect(grab)
+	if check(not cap.is_empty(), "%s: skeleton_updated ran" % what):
+		check_le((cap["tip"] as Vector3).distance_to(goal), ik.tolerance + 2e-6, "%s: tip to target (m)" % what)
+		check_eq(cap["reason"], "converged", "%s: reason" % what)
+
+
+## A skeleton of `n` bones in a line along +Y (bone i named "b<i>", length `length`).
+func _line_skeleton(n: int, length := 0.1) -> Skeleton3D:
+	var skel := Skeleton3D.new()
+	skel.name = "Skeleton"
+	for i in n:
+		var b := skel.add_bone("b%d" % i)
+		skel.set_bone_parent(b, b - 1)
+		skel.set_bone_rest(b, Transform3D(Basis(), Vector3(0, 0.0 if i == 0 else length, 0)))
+	skel.reset_bone_poses()
+	return skel
+
+
+# ------------------------------------------------------------------ nodes freed or moved
+
+func test_target_freed_while_solving() -> void:
+	var rig := _rig(1)
+	var skel: Skeleton3D = rig["skeleton"]
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	expect_error("target", 1)
+	(rig["target"] as Node).free()
+	await frames(4)
+	_check_finite(skel, "after the target was freed")
+	check_eq(rig["ik"].get_last_result().get("usable"), false, "usable without a target")
+	# A new node at the same path is picked up again.
+	var again := Marker3D.new()
+	again.name = "Target"
+	var goal := Arm.fk_tip_world(3, Arm.random_rotations(RandomNumberGenerator.new(), 3))
+	again.position = goal
+	rig["container"].add_child(again)
+	await _check_reaches(skel, rig["ik"], goal, "a new target at the same path")
+
+
+func test_target_queue_freed_inside_skeleton_update() -> void:
+	var rig := _rig(2)
+	var skel: Skeleton3D = rig["skeleton"]
+	var target: Node3D = rig["target"]
+	var once := [false]
+	skel.skeleton_updated.connect(func():
+		if not once[0]:
+			once[0] = true
+			target.queue_free())
+	expect_error("target", 1)
+	Rig.add_to(case_root, rig)
+	await frames(5)
+	_check_finite(skel, "after the target was queue_freed during an update")
+
+
+func test_reparented_out_of_skeleton_and_back() -> void:
+	var rig := _rig(3)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	var holder := Node3D.new()
+	holder.name = "Holder"
+	rig["container"].add_child(holder)
+	expect_error("skeleton3d", 1)
+	ik.reparent(holder, false)
+	await frames(3)
+	_check_finite(skel, "IKChain outside its skeleton")
+	ik.reparent(skel, false)
+	await _check_reaches(skel, ik, goal, "IKChain back in its skeleton")
+
+
+func test_moved_between_skeletons() -> void:
+	var a := _rig(4)
+	var b := _rig(5)
+	a["container"].name = "RigA"
+	b["container"].name = "RigB"
+	Rig.add_to(case_root, a)
+	Rig.add_to(case_root, b)
+	b["ik"].free()  # B's skeleton gets A's chain instead
+	await frames(2)
+	var ik: IKChain = a["ik"]
+	ik.reparent(b["skeleton"], false)  # target "../../Target" now resolves to B's target
+	await _check_reaches(b["skeleton"], ik, (b["target"] as Node3D).position, "chain moved to another skeleton")
+	_check_finite(a["skeleton"], "the skeleton it left")
+
+
+func test_skeleton_freed_with_chain() -> void:
+	var rig := _rig(6)
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	(rig["skeleton"] as Node).queue_free()
+	await frames(3)
+	check(not is_instance_valid(rig["ik"]), "the chain went with its skeleton")
+
+
+# ------------------------------------------------------------------ the skeleton edited under it
+
+func pending_tip_bone_renamed_at_run_time() -> void:
+	var rig := _rig(7)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	var tip := skel.find_bone("tip")
+	expect_error("tip_bone", 1)
+	skel.set_bone_name(tip, "renamed")
+	await frames(3)
+	_check_finite(skel, "tip bone renamed")
+	check_eq(ik.get_last_result().get("usable"), false, "usable with the tip bone gone")
+	skel.set_bone_name(tip, "tip")
+	await _check_reaches(skel, ik, goal, "tip bone named back")
+
+
+func test_bones_added_at_run_time() -> void:
+	var rig := _rig(8)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	var extra := skel.add_bone("extra")
+	skel.set_bone_parent(extra, skel.find_bone("j1"))
+	skel.set_bone_rest(extra, Transform3D(Basis(), Vector3(0.1, 0, 0)))
+	skel.reset_bone_pose(extra)
+	await _check_reaches(skel, ik, goal, "after a bone was added")
+
+
+func test_bones_cleared_at_run_time() -> void:
+	var rig := _rig(9)
+	var skel: Skeleton3D = rig["skeleton"]
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	expect_error("root_bone|tip_bone", -1)
+	skel.clear_bones()
+	await frames(3)
+	check_eq(skel.get_bone_count(), 0, "bone count")
+	check_eq(rig["ik"].get_last_result().get("usable"), false, "usable without bones")
+
+
+func test_bones_changed_every_frame() -> void:
+	var rig := _rig(10)
+	var skel: Skeleton3D = rig["skeleton"]
+	var rng := RandomNumberGenerator.new()
+	rng.seed = 11
+	Rig.add_to(case_root, rig)
+	for f in 30:
+		var rots := Arm.random_rotations(rng, 3, 0.0, 3.1)
+		Arm.pose_joints(skel, rots)
+		var j1 := skel.find_bone("j1")
+		skel.set_bone_rest(j1, Transform3D(Basis(rots[0]), Vector3(0, rng.randf_range(0.0, 1.0), 0)))
+		await process_frame
+	_check_finite(skel, "after 30 frames of edits")
+	var r: Dictionary = rig["ik"].get_last_result()
+	check_eq(r.get("usable"), true, "usable")
+	check(is_finite(float(r.get("final_error", NAN))), "final_error finite")
+
+
+# ------------------------------------------------------------------ degenerate skeletons
+
+func test_skeleton_with_zero_bones() -> void:
+	var skel := _line_skeleton(0)
+	var ik := IKChain.new()
+	ik.root_bone = "b0"
+	ik.tip_bone = "b1"
+	skel.add_child(ik)
+	expect_error("root_bone|tip_bone", -1)
+	case_root.add_child(skel)
+	await frames(3)
+	check_eq(ik.get_last_result().get("usable"), false, "usable")
+
+
+func test_skeleton_with_one_bone() -> void:
+	var skel := _line_skeleton(1)
+	var target := Marker3D.new()
+	target.name = "Target"
+	case_root.add_child(target)
+	var ik := IKChain.new()
+	ik.root_bone = "b0"
+	ik.tip_bone = "b0"
+	ik.target = NodePath("../../Target")
+	skel.add_child(ik)
+	expect_error("tip_bone|root_bone", 1)
+	case_root.add_child(skel)
+	await frames(3)
+	_check_finite(skel, "one bone")
+	check_eq(ik.get_last_result().get("usable"), false, "usable")
+
+
+func test_skeleton_with_200_bones() -> void:
+	var skel := _line_skeleton(201, 0.05)  # 200 joints b0..b199, tip b200
+	var target := Marker3D.new()
+	target.name = "Target"
+	var goal := Vector3(3.0, 6.0, 1.0)  # within the 10 m reach
+	target.position = goal
+	case_root.add_child(target)
+	var ik := IKChain.new()
+	ik.root_bone = "b0"
+	ik.tip_bone = "b200"
+	ik.target = NodePath("../../Target")
+	skel.add_child(ik)
+	var cap := {}
+	skel.skeleton_updated.connect(func():
+		cap["tip"] = skel.global_transform * skel.get_bone_global_pose(200).origin
+		cap["reason"] = ik.get_last_result().get("reason"))
+	case_root.add_child(skel)
+	await frames(3)
+	_check_finite(skel, "200 bones")
+	if check(not cap.is_empty(), "skeleton_updated ran"):
+		check_le((cap["tip"] as Vector3).distance_to(goal), ik.tolerance + 2e-6, "tip to target (m)")
+		check_eq(cap["reason"], "converged", "reason")
+
+
+## Today's node: no NaN, the pose is left alone, and the error it prints blames the target.
+func test_zero_scale_skeleton() -> void:
+	await _zero_scale("target")
+
+
+## Wanted: the error names the skeleton's scale, the real problem.
+func pending_zero_scale_skeleton_names_the_scale() -> void:
+	await _zero_scale("scale")
+
+
+func _zero_scale(error_regex: String) -> void:
+	var rig := _rig(12)
+	var skel: Skeleton3D = rig["skeleton"]
+	skel.scale = Vector3.ZERO
+	expect_error(error_regex, 1)
+	Rig.add_to(case_root, rig)
+	await frames(3)
+	for i in skel.get_bone_count():
+		if not check(transform_is_finite(skel.get_bone_pose(i)), "bone %s local pose finite" % skel.get_bone_name(i)):
+			break
+	check(is_finite(float(rig["ik"].get_last_result().get("final_error", NAN))), "final_error finite")
+
+
+func test_zero_length_bones() -> void:
+	var skel := _line_skeleton(4, 0.0)
+	var target := Marker3D.new()
+	target.name = "Target"
+	target.position = Vector3(0, 1, 0)
+	case_root.add_child(target)
+	var ik := IKChain.new()
+	ik.root_bone = "b0"
+	ik.tip_bone = "b3"
+	ik.target = NodePath("../../Target")
+	skel.add_child(ik)
+	expect_error("length|zero", 1)
+	case_root.add_child(skel)
+	await frames(3)
+	_check_finite(skel, "zero-length bones")
+	check_eq(ik.get_last_result().get("usable"), false, "usable")
+
+
+# ------------------------------------------------------------------ property values of the wrong kind
+
+func pending_max_iterations_set_to_a_string() -> void:
+	var rig := _rig(13)
+	var ik: IKChain = rig["ik"]
+	Rig.add_to(case_root, rig)
+	await frames(1)
+	var before: int = ik.max_iterations
+	expect_error("max_iterations|int|String", -1)
+	ik.set("max_iterations", "abc")
+	await frames(2)
+	check_eq(ik.max_iterations, before, "max_iterations unchanged")
+	_check_finite(rig["skeleton"], "after set(max_iterations, \"abc\")")
+
+
+func test_solver_set_to_99() -> void:
+	var rig := _rig(14)
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	Rig.add_to(case_root, rig)
+	await frames(1)
+	expect_error("solver", 1)
+	ik.set("solver", 99)
+	check(ik.solver >= IKChain.SOLVER_TWO_BONE and ik.solver <= IKChain.SOLVER_FABRIK,
+			"solver within the enum, got %d" % ik.solver)
+	if ik.solver != IKChain.SOLVER_TWO_BONE:
+		ik.max_iterations = 1000  # CCD / FABRIK near full extension need hundreds
+		await _check_reaches(rig["skeleton"], ik, goal, "after set(solver, 99)")
+
+
+func test_tolerance_set_to_nan_and_string() -> void:
+	var rig := _rig(15)
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	Rig.add_to(case_root, rig)
+	await frames(1)
+	var before: float = ik.tolerance
+	expect_error("tolerance", -1)
+	ik.set("tolerance", NAN)
+	ik.set("tolerance", "abc")
+	check(is_finite(ik.tolerance) and ik.tolerance > 0.0, "tolerance finite and > 0, got %s" % str(ik.tolerance))
+	check_eq(ik.tolerance, before, "tolerance unchanged")
+	await _check_reaches(rig["skeleton"], ik, goal, "after bad tolerances")
+
+
+func test_two_chains_on_the_same_bones() -> void:
+	var rig := _rig(16)
+	var skel: Skeleton3D = rig["skeleton"]
+	var second := IKChain.new()
+	second.name = "IKChain2"
+	second.root_bone = "j0"
+	second.tip_bone = "tip"
+	second.target = NodePath("../../Target2")
+	second.solver = IKChain.SOLVER_CCD
+	skel.add_child(second)
+	var t2 := Marker3D.new()
+	t2.name = "Target2"
+	t2.position = Arm.root_joint_world() + Vector3(0.5, 0.5, 0.0)
+	rig["container"].add_child(t2)
+	var cap := {}
+	skel.skeleton_updated.connect(func(): cap["tip"] = Arm.tip_world(skel))
+	Rig.add_to(case_root, rig)
+	await frames(4)
+	_check_finite(skel, "two chains")
+	# Modifiers run in child order: the second one has the last word.
+	if check(not cap.is_empty(), "skeleton_updated ran"):
+		check_le((cap["tip"] as Vector3).distance_to(t2.position), 1e-3, "the last chain's target is reached (m)")
+	check_eq(rig["ik"].get_last_result().get("usable"), true, "first chain usable")
+	check_eq(second.get_last_result().get("usable"), true, "second chain usable")
+
+
+# ------------------------------------------------------------------ non-finite and huge targets
+
+func _non_finite_target(position: Vector3) -> void:
+	var rig := _rig(17)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	var locals := []
+	for i in skel.get_bone_count():
+		locals.append(skel.get_bone_pose(i))
+	expect_error("target", 1)
+	(rig["target"] as Node3D).position = position
+	await frames(3)
+	_check_finite(skel, "non-finite target")
+	for i in skel.get_bone_count():
+		check(transforms_near(skel.get_bone_pose(i), locals[i], 1e-6),
+				"bone %s left as it was" % skel.get_bone_name(i))
+	check_eq(ik.get_last_result().get("usable"), false, "usable")
+	(rig["target"] as Node3D).position = goal
+	await _check_reaches(skel, ik, goal, "target finite again")
+
+
+func test_nan_target() -> void:
+	await _non_finite_target(Vector3(NAN, 0.5, 0.0))
+
+
+func test_inf_target() -> void:
+	await _non_finite_target(Vector3(0.0, INF, 0.0))
+
+
+func test_huge_target() -> void:
+	var rig := _rig(18)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var far := Vector3(1e30, 1e30, 0.0)
+	(rig["target"] as Node3D).position = far
+	var cap := {}
+	skel.skeleton_updated.connect(func():
+		cap["tip"] = Arm.tip_world(skel)
+		cap["result"] = ik.get_last_result())
+	Rig.add_to(case_root, rig)
+	await frames(3)
+	_check_finite(skel, "1e30 target")
+	if check(not cap.is_empty(), "skeleton_updated ran"):
+		var r: Dictionary = cap["result"]
+		check_eq(r.get("usable"), true, "usable")
+		check(r.get("reason") != "converged", "not converged on a 1e30 target, got %s" % r.get("reason"))
+		# The best reach: the chain points at the target, fully extended.
+		var root := Arm.root_joint_world()
+		var dir := (cap["tip"] as Vector3 - root).normalized()
+		check_le(dir.angle_to(far.normalized()), 1e-3, "chain points at the target (rad)")
+		check_near((cap["tip"] as Vector3 - root).length(), Arm.chain_length(3), 1e-3, "fully extended (m)")
