@@ -317,10 +317,13 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
                                  kMaxMagnitude);
         break;
       case GoalKind::kAimAt:
-        if (!finite3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
-          return Message::format("goal %d: aim_axis must be a finite non-zero vector", i);
-        if (!finite3(g.target_position))
-          return Message::format("goal %d: target_position (the point to aim at) is not finite", i);
+        if (!bounded3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+          return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
+                                 kMaxMagnitude);
+        if (!bounded3(g.target_position))
+          return Message::format("goal %d: target_position (the point to aim at) (%g, %g, %g) must be finite, each "
+                                 "component within +-%g m", i, g.target_position.x, g.target_position.y,
+                                 g.target_position.z, kMaxMagnitude);
         break;
       default:
         return Message::format("goal %d: unknown kind", i);

@@ -264,8 +264,8 @@ TEST(FuzzFindings, HugeTargetsAndWeightsRejected) {
   expect_rejected_untouched(SolverKind::kDLS, chain, {Goal::position(glm::dvec3(0, 1, 0), 0, 1e300)},
                             SolverOptions(), p, "weight");
   SolverOptions pole;
-  pole.two_bone_use_pole = true;
-  pole.pole_y = 1e200;
+  pole.use_pole = true;
+  pole.pole_in_base = glm::dvec3(0.0, 1e200, 0.0);
   expect_rejected_untouched(SolverKind::kTwoBone, chain, {Goal::position(glm::dvec3(0, 1, 0))}, pole, p, "pole");
   // The bounds themselves are valid: unreachable, finite.
   Workspace ws(chain, 1);

@@ -149,6 +149,13 @@ Errors reference_errors(const Pose& pose, const std::vector<Goal>& goals) {
         e = angle_between(glm::normalize(eff_q * g.aim_axis), glm::normalize(g.aim_direction));
         out.max_orientation = std::max(out.max_orientation, e);
         break;
+      case GoalKind::kAimAt: {
+        // The direction from the effector to the point; a point on the effector counts as met.
+        const glm::dvec3 to_point = g.target_position - (k == n ? pose.tip : pose.origins[k]);
+        e = glm::length(to_point) > 0.0 ? angle_between(glm::normalize(eff_q * g.aim_axis), to_point) : 0.0;
+        out.max_orientation = std::max(out.max_orientation, e);
+        break;
+      }
     }
     out.cost += 0.5 * g.weight * e * e;
   }
@@ -249,9 +256,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<Goal> goals(static_cast<size_t>(goal_count));
   const double reach = chain.valid() ? chain.total_length() : 2.0;
   for (Goal& g : goals) {
-    const int kind = d.ConsumeIntegralInRange<int>(0, 12);
-    g.kind = kind < 6 ? GoalKind::kPosition : kind < 9 ? GoalKind::kOrientation : kind < 12 ? GoalKind::kAim
-                                                                                          : static_cast<GoalKind>(9);
+    const int kind = d.ConsumeIntegralInRange<int>(0, 14);
+    g.kind = kind < 6    ? GoalKind::kPosition
+             : kind < 9  ? GoalKind::kOrientation
+             : kind < 11 ? GoalKind::kAim
+             : kind < 14 ? GoalKind::kAimAt
+                         : static_cast<GoalKind>(9);
     g.effector = d.ConsumeIntegralInRange<int>(0, 7) == 0 ? d.ConsumeIntegralInRange<int>(-3, n + 3)
                                                           : d.ConsumeIntegralInRange<int>(0, n > 0 ? n : 0);
     g.weight = d.ConsumeIntegralInRange<int>(0, 3) == 0 ? pick(d, 10.0) : 1.0;
@@ -288,10 +298,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         d.ConsumeBool() ? d.ConsumeIntegralInRange<int>(-2, 100) : d.ConsumeIntegral<int>();
   }
   if (maybe(15)) {
-    o.two_bone_use_pole = true;
-    o.pole_x = pick_mostly(d, reach);
-    o.pole_y = pick_mostly(d, reach);
-    o.pole_z = pick_mostly(d, reach);
+    o.use_pole = true;
+    o.pole_in_base = glm::dvec3(pick_mostly(d, reach), pick_mostly(d, reach), pick_mostly(d, reach));
+  }
+  // Budgets and restarts: small, so a run stays fast (the budget's overrun is checked below).
+  if (maybe(20)) o.time_budget_usec = d.ConsumeBool() ? pick(d, 200.0) : d.ConsumeFloatingPointInRange(0.0, 50.0);
+  if (maybe(21)) {
+    o.max_restarts = d.ConsumeIntegralInRange<int>(-1, 3);
+    o.restart_seed = d.ConsumeIntegral<unsigned>();
   }
   const SolverKind kind = static_cast<SolverKind>(d.ConsumeIntegralInRange<int>(-1, kSolverKindCount));
 
@@ -338,11 +352,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::fprintf(stderr,
                  "options: max_iterations %d pos_tol %.17g ori_tol %.17g stall %.17g warm %d max_step %.17g "
                  "pinv_res %.17g halvings %d pinv_sing %.17g dls %.17g/%.17g/%.17g wolfe %.17g/%.17g ls %d pole %d "
-                 "(%.17g, %.17g, %.17g)\n",
+                 "(%.17g, %.17g, %.17g) budget %.17g restarts %d seed %u\n",
                  o.max_iterations, o.position_tolerance, o.orientation_tolerance, o.stall_tolerance, o.warm_start,
                  o.max_step_angle, o.pinv_residual_tolerance, o.pinv_max_halvings, o.pinv_singular_threshold,
                  o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping, o.bfgs_wolfe_c1, o.bfgs_wolfe_c2,
-                 o.bfgs_max_line_search_steps, o.two_bone_use_pole, o.pole_x, o.pole_y, o.pole_z);
+                 o.bfgs_max_line_search_steps, o.use_pole, o.pole_in_base.x, o.pole_in_base.y, o.pole_in_base.z,
+                 o.time_budget_usec, o.max_restarts, o.restart_seed);
     std::fprintf(stderr, "solver %d, workspace goals %d, params:", static_cast<int>(kind), ws_goals);
     for (int i = 0; i < input.size(); ++i) std::fprintf(stderr, " %.17g", input[i]);
     std::fprintf(stderr, "\nresult: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
