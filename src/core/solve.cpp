@@ -350,10 +350,27 @@ Message validate_inputs(SolverKind kind, const Chain& chain, Span<const Goal> go
                         const Workspace& ws, const Eigen::Ref<const Eigen::VectorXd>& params) {
   Message m = validate_inputs(chain, goals, options, ws, params);
   if (!m.empty()) return m;
+  if (static_cast<int>(kind) < 0 || static_cast<int>(kind) >= kSolverKindCount)
+    return Message::format("solver kind %d is unknown (0..%d)", static_cast<int>(kind), kSolverKindCount - 1);
+  // What the solver table says each solver takes, checked here once for all of them.
+  const SolverInfo& info = solver_info(kind);
+  if (!info.prismatic_joints && chain.first_prismatic() >= 0)
+    return Message::format("%s turns joints only; joint %d is prismatic: use DLS, the pseudo-inverse or BFGS", info.id,
+                           chain.first_prismatic());
+  if (info.joint_count != 0 && chain.joint_count() != info.joint_count)
+    return Message::format("%s needs a chain of exactly %d joints, got %d", info.id, info.joint_count,
+                           chain.joint_count());
+  if (info.orientation_goals && !info.intermediate_orientation_goals) {
+    for (int g = 0; g < goals.size; ++g) {
+      const int k = resolve_effector(chain, goals[g].effector);
+      if (goals[g].kind != GoalKind::kPosition && k != chain.joint_count())
+        return Message::format("%s: goal %d (orientation/aim) is on effector %d; %s pursues those only on the tip "
+                               "(effector 0 or %d): use CCD, DLS or BFGS", info.id, g, k, info.display_name,
+                               chain.joint_count());
+    }
+  }
   switch (kind) {
     case SolverKind::kTwoBone:
-      if (chain.joint_count() != 2)
-        return Message::format("two_bone needs a chain of exactly 2 joints, got %d", chain.joint_count());
       if (goals.size != 1 || goals[0].kind != GoalKind::kPosition || resolve_effector(chain, goals[0].effector) != 2)
         return Message::format(
             "two_bone takes exactly 1 goal, a position goal on the tip (effector 0 or 2); got %d goal(s)",
@@ -363,13 +380,16 @@ Message validate_inputs(SolverKind kind, const Chain& chain, Span<const Goal> go
       if (goals.size > kCcdMaxGoals)
         return Message::format("ccd supports at most %d goals, got %d", kCcdMaxGoals, goals.size);
       break;
-    case SolverKind::kJacobianPinv:
-    case SolverKind::kDLS:
-    case SolverKind::kBFGS:
-    case SolverKind::kFABRIK:
+    case SolverKind::kFABRIK: {
+      bool tip_frame_goals = false;
+      for (int g = 0; g < goals.size; ++g) tip_frame_goals = tip_frame_goals || goals[g].kind != GoalKind::kPosition;
+      if (tip_frame_goals && goals.size > kFabrikMaxGoals)
+        return Message::format("fabrik supports at most %d goals with orientation/aim goals, got %d", kFabrikMaxGoals,
+                               goals.size);
       break;
+    }
     default:
-      return Message::format("solver kind %d is unknown (0..%d)", static_cast<int>(kind), kSolverKindCount - 1);
+      break;
   }
   return Message();
 }

@@ -21,29 +21,18 @@ namespace {
 
 constexpr const char* kClass = "IKChain";
 
-// The one solver table: enum constants, inspector labels (the hint string is built from it) and
-// the core solver each value runs. Auto resolves per chain (IKChain::resolved_solver()).
-struct SolverEntry {
-  int64_t value;
-  const char* constant;
-  const char* label;
-  SolverKind kind;
-};
-constexpr SolverEntry kSolverTable[] = {
-    {IKChain::SOLVER_TWO_BONE, "SOLVER_TWO_BONE", "Two Bone", SolverKind::kTwoBone},
-    {IKChain::SOLVER_CCD, "SOLVER_CCD", "CCD", SolverKind::kCCD},
-    {IKChain::SOLVER_JACOBIAN, "SOLVER_JACOBIAN", "Jacobian Pseudo-Inverse", SolverKind::kJacobianPinv},
-    {IKChain::SOLVER_DLS, "SOLVER_DLS", "Damped Least Squares", SolverKind::kDLS},
-    {IKChain::SOLVER_BFGS, "SOLVER_BFGS", "BFGS", SolverKind::kBFGS},
-    {IKChain::SOLVER_FABRIK, "SOLVER_FABRIK", "FABRIK", SolverKind::kFABRIK},
-    {IKChain::SOLVER_AUTO, "SOLVER_AUTO", "Auto", SolverKind::kDLS},
-};
-constexpr int kSolverCount = int(sizeof(kSolverTable) / sizeof(kSolverTable[0]));
-
-const char* solver_label(SolverKind kind) {
-  for (const SolverEntry& e : kSolverTable)
-    if (e.kind == kind && e.value != IKChain::SOLVER_AUTO) return e.label;
-  return "";
+// The solvers come from the core's one table (solver_table(): names, capabilities); IKChain's
+// values 0..5 are the SolverKind values, and Auto (6) resolves per chain (resolved_solver()).
+// Only the script-facing constant names are spelled here.
+static_assert(int64_t(SolverKind::kTwoBone) == IKChain::SOLVER_TWO_BONE && int64_t(SolverKind::kCCD) == IKChain::SOLVER_CCD &&
+                  int64_t(SolverKind::kJacobianPinv) == IKChain::SOLVER_JACOBIAN &&
+                  int64_t(SolverKind::kDLS) == IKChain::SOLVER_DLS && int64_t(SolverKind::kBFGS) == IKChain::SOLVER_BFGS &&
+                  int64_t(SolverKind::kFABRIK) == IKChain::SOLVER_FABRIK && kSolverKindCount == IKChain::SOLVER_AUTO,
+              "IKChain.Solver values are the core's SolverKind values, then Auto");
+const char* solver_constant(int64_t value) {
+  static constexpr const char* kNames[] = {"SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS",
+                                           "SOLVER_BFGS",     "SOLVER_FABRIK", "SOLVER_AUTO"};
+  return kNames[value];
 }
 
 // StringNames the instances compare against; allocated at SCENE init, freed at deinit.
@@ -148,11 +137,13 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("_get_configuration_warnings", &IKChain::get_configuration_warnings);
 
   std::string solver_hint;
-  for (const SolverEntry& e : kSolverTable) {
-    b.constant("Solver", e.constant, e.value);
-    if (!solver_hint.empty()) solver_hint += ",";
-    solver_hint += std::string(e.label) + ":" + std::to_string(e.value);
+  for (const SolverInfo& info : solver_table()) {
+    const int64_t value = int64_t(info.kind);
+    b.constant("Solver", solver_constant(value), value);
+    solver_hint += std::string(info.display_name) + ":" + std::to_string(value) + ",";
   }
+  b.constant("Solver", solver_constant(SOLVER_AUTO), SOLVER_AUTO);
+  solver_hint += "Auto:" + std::to_string(SOLVER_AUTO);
   b.constant("GoalMode", "GOAL_MODE_REACH", GOAL_MODE_REACH);
   b.constant("GoalMode", "GOAL_MODE_AIM", GOAL_MODE_AIM);
   const char* axis_constants[] = {"AXIS_PLUS_X", "AXIS_MINUS_X", "AXIS_PLUS_Y",
@@ -393,7 +384,7 @@ gdx::Dictionary IKChain::get_last_result() const {
   put("reached", gdx::Variant(usable && written_.max_position <= tolerance_ &&
                               written_.max_orientation <= orientation_tolerance_));
   put("budget_exhausted", gdx::Variant(last_.budget_exhausted));
-  put("solver", gdx::Variant(usable ? solver_label(last_solver_) : ""));
+  put("solver", gdx::Variant(usable ? solver_info(last_solver_).display_name : ""));
   put("message", gdx::Variant(last_.message.c_str()));
   return d;
 }
@@ -534,11 +525,13 @@ void IKChain::collect_chain_problems(const gdx::Skeleton3D& skel, std::vector<Pr
     settings[k] = joint;
   }
 
-  const bool two_bone = solver_ == SOLVER_TWO_BONE;
-  if (two_bone && joint_count != 2) {
-    problems.push_back({"solver", "IKChain: solver Two Bone needs exactly 2 joints (root_bone, its child, then "
-                                  "tip_bone), this chain has " + std::to_string(joint_count) +
-                                  "; change root_bone/tip_bone or pick another solver."});
+  if (solver_ != SOLVER_AUTO) {
+    const SolverInfo& info = solver_info(SolverKind(solver_));
+    if (info.joint_count != 0 && size_t(info.joint_count) != joint_count)
+      problems.push_back({"solver", std::string("IKChain: solver ") + info.display_name + " needs exactly " +
+                                        std::to_string(info.joint_count) + " joints (root_bone, its child, then "
+                                        "tip_bone), this chain has " + std::to_string(joint_count) +
+                                        "; change root_bone/tip_bone or pick another solver."});
   }
   if (desc == nullptr) return;
   desc->bones.clear();
@@ -593,10 +586,13 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
   if (goal_mode_ == GOAL_MODE_AIM && !(glm::length(gdx::to_glm(aim_axis_)) > 1e-9))
     problems.push_back({"aim_axis", "IKChain: aim_axis is zero; set the tip bone's axis that should point at the "
                                     "target, e.g. (0, 1, 0)."});
+  // What the chosen solver can pursue (the core's solver table); Auto always picks one that can.
+  const SolverInfo* info = solver_ == SOLVER_AUTO ? nullptr : &solver_info(SolverKind(solver_));
   const bool orientation = (goal_mode_ == GOAL_MODE_AIM) || (use_target_rotation_ && rotation_weight_ > 0.0);
-  if (orientation && solver_ == SOLVER_TWO_BONE)
-    problems.push_back({"solver", "IKChain: solver Two Bone only reaches a position; turn off use_target_rotation "
-                                  "(or goal_mode Aim), or pick another solver (Auto picks one that can)."});
+  if (info != nullptr && orientation && !info->orientation_goals)
+    problems.push_back({"solver", std::string("IKChain: solver ") + info->display_name +
+                                      " only reaches a position; turn off use_target_rotation (or goal_mode Aim), or "
+                                      "pick another solver (Auto picks one that can)."});
   for (int64_t i = 0; i < goals_.size(); ++i) {
     gdx::ObjectPtr object = nullptr;
     gdx::variant_to(goals_.at(i), object);
@@ -611,9 +607,15 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
       problems.push_back({"goals", where + " (bone '" + goal->bone_name() +
                                        "'): target does not point to a Node3D; set its target (a path relative to "
                                        "this IKChain)."});
-    if (solver_ == SOLVER_TWO_BONE)
-      problems.push_back({"solver", "IKChain: solver Two Bone takes no extra goals; remove goals[" +
-                                        std::to_string(i) + "] or pick another solver."});
+    if (info != nullptr && !info->several_goals)
+      problems.push_back({"solver", std::string("IKChain: solver ") + info->display_name +
+                                        " takes no extra goals; remove goals[" + std::to_string(i) +
+                                        "] or pick another solver."});
+    else if (info != nullptr && goal->get_kind() != IKChainGoal::KIND_POSITION &&
+             !info->intermediate_orientation_goals)
+      problems.push_back({"solver", std::string("IKChain: solver ") + info->display_name +
+                                        " pursues orientation and aim goals on the tip only; make goals[" +
+                                        std::to_string(i) + "] a position goal or pick another solver."});
   }
 }
 
@@ -726,7 +728,7 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
 }
 
 SolverKind IKChain::resolved_solver() const {
-  if (solver_ != SOLVER_AUTO) return kSolverTable[solver_].kind;
+  if (solver_ != SOLVER_AUTO) return SolverKind(solver_);
   // Auto: the analytic solver when it is exact for the chain and goals (2 free ball joints, one
   // position goal); otherwise damped least squares, the fastest of the robust solvers in the
   // benchmark (docs/benchmarks.md), which pursues every goal kind and respects limits.

@@ -136,7 +136,7 @@ test('bad input: clear messages, nothing thrown from the core, pose untouched', 
   const r = c.solve(SolverKind.DLS);
   assert.equal(r.reason, 'invalid_input');
   assert.equal(r.usable, false);
-  assert.match(r.message, /goal 0: target_position is not finite/);
+  assert.match(r.message, /goal 0: target_position \(nan, 0, 0\) must be finite/);
   assert.deepEqual(c.params(), before);
 
   c.setGoals([{ kind: 'position', target: [1, 1, 0] }]);

@@ -75,17 +75,7 @@ double sweep(const Chain& chain, Span<const Goal> goals, const SolverOptions& op
 SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
                        double* params) {
   SolverStatus status;
-  if (chain.first_prismatic() >= 0) {
-    status.reason = TerminationReason::kInvalidInput;
-    status.message = Message::format("ccd turns joints only; joint %d is prismatic: use DLS, the pseudo-inverse or BFGS",
-                                     chain.first_prismatic());
-    return status;
-  }
-  if (goals.size > kMaxGoals) {
-    status.reason = TerminationReason::kInvalidInput;
-    status.message = Message::format("ccd supports at most %d goals, got %d", kMaxGoals, goals.size);
-    return status;
-  }
+  // solve() checked what CCD takes (no prismatic joints, at most kMaxGoals goals).
   geometric::Tracked tracked[kMaxGoals];
   const int n = chain.joint_count();
   // One tip position goal at or beyond full reach: straighten toward it first (see above).

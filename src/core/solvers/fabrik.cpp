@@ -56,7 +56,7 @@ namespace ikchain {
 namespace {
 
 constexpr int kFabrikStallIterations = 8;
-constexpr int kMaxGoals = 16;  // with orientation/aim goals (the final alignment tracks each goal)
+constexpr int kMaxGoals = kFabrikMaxGoals;
 
 // Weighted mean of the position goals on effector k (1..n); false when there are none.
 bool pinned_target(const Chain& chain, Span<const Goal> goals, int k, glm::dvec3& out) {
@@ -113,32 +113,11 @@ void forward_reaching(const Chain& chain, Span<const Goal> goals, Workspace& ws)
 SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                           Workspace& ws, double* params) {
   SolverStatus status;
-  if (chain.first_prismatic() >= 0) {
-    status.reason = TerminationReason::kInvalidInput;
-    status.message = Message::format("fabrik turns joints only; joint %d is prismatic: use DLS, the pseudo-inverse or BFGS",
-                                     chain.first_prismatic());
-    return status;
-  }
+  // solve() checked what the solver table says FABRIK takes (no prismatic joints, orientation and
+  // aim goals on the tip only, at most kMaxGoals goals with them).
   const int n = chain.joint_count();
   bool tip_frame_goals = false;
-  for (int g = 0; g < goals.size; ++g) {
-    if (goals[g].kind == GoalKind::kPosition) continue;
-    const int k = resolve_effector(chain, goals[g].effector);
-    if (k != n) {
-      status.reason = TerminationReason::kInvalidInput;
-      status.message = Message::format(
-          "fabrik: goal %d (orientation/aim) is on effector %d; FABRIK pursues those only on the tip "
-          "(effector 0 or %d): use CCD, DLS or BFGS", g, k, n);
-      return status;
-    }
-    tip_frame_goals = true;
-  }
-  if (tip_frame_goals && goals.size > kMaxGoals) {
-    status.reason = TerminationReason::kInvalidInput;
-    status.message = Message::format("fabrik supports at most %d goals with orientation/aim goals, got %d",
-                                     kMaxGoals, goals.size);
-    return status;
-  }
+  for (int g = 0; g < goals.size; ++g) tip_frame_goals = tip_frame_goals || goals[g].kind != GoalKind::kPosition;
   geometric::Tracked tracked[kMaxGoals];
   geometric::Progress progress(chain, goals, options, ws, params, kFabrikStallIterations);
   status.reason = TerminationReason::kMaxIterations;

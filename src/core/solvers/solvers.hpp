@@ -1,7 +1,9 @@
 // The individual solvers, one per file in this folder. Call them through solve() (solve.hpp),
 // which does everything common to all of them; each function here may assume that:
 //  - chain, goals, options, params and workspace were validated (finite, sizes fit, weights > 0,
-//    effectors in range, workspace.fits(chain, goals.size));
+//    effectors in range, workspace.fits(chain, goals.size)), and so was what the solver table
+//    (solver_table(), solve.cpp) says the solver takes: joint types, chain length, goal kinds and
+//    where they sit, goal counts (validate_inputs(kind, ...));
 //  - params hold the start pose (warm or rest), already projected onto the joint limits;
 //  - the start pose is NOT already within tolerance.
 // Exception: solvers for which solver_measures_start() is true (the Jacobian family's models
@@ -11,9 +13,7 @@
 // Each must: allocate nothing and throw nothing; keep params within the joint limits; leave params
 // at the best (lowest-cost) pose it reached; return kConverged when every goal is within tolerance,
 // else kMaxIterations (budget spent) or kStalled (no further progress). solve() turns a
-// non-converged stop at a stationary best reach into kUnreachable. A solver with extra input rules
-// (two-bone: exactly 2 joints, one position goal) returns kInvalidInput with a message naming
-// the problem and leaves params untouched.
+// non-converged stop at a stationary best reach into kUnreachable.
 #pragma once
 #include "core/chain.hpp"
 #include "core/goal.hpp"
@@ -42,6 +42,7 @@ struct SolverStatus {
 // CCD tracks each goal's effector in a fixed array: more goals are rejected (solve() checks this
 // before anything else, so the verdict does not depend on the start pose).
 constexpr int kCcdMaxGoals = 16;
+constexpr int kFabrikMaxGoals = 16;  // with orientation/aim goals (the final alignment tracks each goal)
 
 // True for the solvers that measure the start pose themselves (see above): DLS.
 inline bool solver_measures_start(SolverKind kind) { return kind == SolverKind::kDLS; }

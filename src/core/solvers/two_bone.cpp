@@ -81,24 +81,7 @@ glm::dquat frame_rotation(const glm::dvec3& x, const glm::dvec3& y, const glm::d
 SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                             Workspace& ws, double* params) {
   SolverStatus status;
-  if (chain.first_prismatic() >= 0) {
-    status.reason = TerminationReason::kInvalidInput;
-    status.message = Message::format("two_bone turns joints only; joint %d is prismatic: use DLS, the pseudo-inverse or BFGS",
-                                     chain.first_prismatic());
-    return status;
-  }
-  if (chain.joint_count() != 2) {
-    status.reason = TerminationReason::kInvalidInput;
-    status.message = Message::format("two_bone needs a chain of exactly 2 joints, got %d", chain.joint_count());
-    return status;
-  }
-  if (goals.size != 1 || goals[0].kind != GoalKind::kPosition || resolve_effector(chain, goals[0].effector) != 2) {
-    status.reason = TerminationReason::kInvalidInput;
-    status.message = Message::format(
-        "two_bone takes exactly 1 goal, a position goal on the tip (effector 0 or 2); got %d goal(s)",
-        goals.size);
-    return status;
-  }
+  // solve() checked what two-bone takes (2 rotational joints, one position goal on the tip).
   status.iterations = 1;
   const glm::dvec3 target = goals[0].target_position;
   const glm::dvec3 pole = options.pole_in_base;
