@@ -128,11 +128,8 @@ TEST(FuzzFindings, SolverRulesGiveTheSameVerdictWhateverTheStart) {
   EXPECT_EQ(solve(SolverKind::kCCD, three, cap, SolverOptions(), ws, q).reason, TerminationReason::kConverged);
 }
 
-// Found by the fuzzer's "never worse than the start" property: the pseudo-inverse, on an
-// unreachable target with a limited root, stalled at a pose of higher cost than its start (it
-// minimises the distance to the target clamped onto the reach sphere, not to the target).
-// solve() now gives the start pose back.
-TEST(FuzzFindings, PseudoInverseNeverWorseThanStart) {
+// The reproducer's chain (3 hinges, the root limited to [-0.3, 0.3]) and its unreachable goal.
+Chain limited_root_chain() {
   ChainBuilder b;
   for (int i = 0; i < 3; ++i) {
     JointDesc j;
@@ -148,9 +145,20 @@ TEST(FuzzFindings, PseudoInverseNeverWorseThanStart) {
   }
   b.set_tip_offset(glm::dvec3(0, 1, 0));
   Chain chain;
-  ASSERT_TRUE(b.build(chain).empty());
-  const std::vector<Goal> goals{
-      Goal::position(glm::dvec3(-4.8024093509053687, 0.7681347410697934, -4.020441898407074))};
+  EXPECT_TRUE(b.build(chain).empty());
+  return chain;
+}
+const std::vector<Goal> kFarGoal{
+    Goal::position(glm::dvec3(-4.8024093509053687, 0.7681347410697934, -4.020441898407074))};
+
+// Found by the fuzzer's "never worse than the start" property: the pseudo-inverse, on an
+// unreachable target with a limited root, stalled at a pose of higher cost than its start (it
+// minimises the distance to the target clamped onto the reach sphere, not to the target).
+// solve() now gives the start pose back.
+TEST(FuzzFindings, PseudoInverseNeverWorseThanStart) {
+  const Chain chain = limited_root_chain();
+  ASSERT_TRUE(chain.valid());
+  const std::vector<Goal>& goals = kFarGoal;
   Eigen::VectorXd start(3);
   start << 0.3, 2.8885714472476072, -1.4326639561548049;
   const double start_cost = cost_of(chain, goals, start);
@@ -173,24 +181,9 @@ TEST(FuzzFindings, PseudoInverseNeverWorseThanStart) {
 // input, which may violate the limits; now it is the start pose, projected onto them. Same
 // reproducer as above, with a warm start whose root angle (1.0) is outside [-0.3, 0.3].
 TEST(FuzzFindings, FallbackPoseRespectsLimits) {
-  ChainBuilder b;
-  for (int i = 0; i < 3; ++i) {
-    JointDesc j;
-    j.type = JointType::kHinge;
-    j.hinge_axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
-    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    if (i == 0) {
-      j.limits.has_hinge_limit = true;
-      j.limits.hinge_min = -0.3;
-      j.limits.hinge_max = 0.3;
-    }
-    b.add_joint(j);
-  }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain chain;
-  ASSERT_TRUE(b.build(chain).empty());
-  const std::vector<Goal> goals{
-      Goal::position(glm::dvec3(-4.8024093509053687, 0.7681347410697934, -4.020441898407074))};
+  const Chain chain = limited_root_chain();
+  ASSERT_TRUE(chain.valid());
+  const std::vector<Goal>& goals = kFarGoal;
   Eigen::VectorXd p(3);
   p << 1.0, 2.8885714472476072, -1.4326639561548049;
   Workspace ws(chain, 1);
