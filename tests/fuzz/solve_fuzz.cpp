@@ -248,6 +248,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const int goal_count = d.ConsumeIntegralInRange<int>(0, 5);
   std::vector<Goal> goals(static_cast<size_t>(goal_count));
   const double reach = chain.valid() ? chain.total_length() : 2.0;
+  // Reachable goals too (so "converged" is claimed often enough to be checked): the pose of a
+  // random configuration, by the independent FK.
+  Pose reachable;
+  if (chain.valid()) {
+    std::vector<double> q(static_cast<size_t>(chain.dof_count()));
+    for (double& v : q) v = d.ConsumeFloatingPointInRange<double>(-3.0, 3.0);
+    reachable = reference_fk(joints, tip_offset, q.data());
+  }
   for (Goal& g : goals) {
     const int kind = d.ConsumeIntegralInRange<int>(0, 12);
     g.kind = kind < 6 ? GoalKind::kPosition : kind < 9 ? GoalKind::kOrientation : kind < 12 ? GoalKind::kAim
@@ -260,6 +268,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         glm::dquat(pick_mostly(d, 1.0), pick_mostly(d, 1.0), pick_mostly(d, 1.0), pick_mostly(d, 1.0));
     g.aim_axis = pick_vec(d, 1.0);
     g.aim_direction = pick_vec(d, 1.0);
+    if (chain.valid() && g.effector >= 0 && g.effector <= n && d.ConsumeBool()) {
+      const int k = g.effector == 0 ? n : g.effector;
+      g.target_position = k == n ? reachable.tip : reachable.origins[k];
+      g.target_orientation = reachable.orientations[k - 1];
+      g.aim_direction = reachable.orientations[k - 1] * g.aim_axis;
+    }
   }
 
   // ---------------------------------------------------------------- the options
