@@ -322,9 +322,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const Eigen::VectorXd input = params;
 
   // ---------------------------------------------------------------- the solve
-  const SolveResult r = solve(kind, chain, goals, o, ws, params);
-  count(kind, r.reason);
-  if (std::getenv("IKCHAIN_FUZZ_DUMP")) {  // the decoded input, to turn a finding into a test
+  const bool dump = std::getenv("IKCHAIN_FUZZ_DUMP") != nullptr;
+  if (dump) {  // the decoded input, to turn a finding into a test
     std::fprintf(stderr, "chain: %d joints, build '%s'\n", n, built.c_str());
     for (int i = 0; i < n; ++i) {
       const JointDesc& j = joints[i];
@@ -359,7 +358,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                  o.bfgs_max_line_search_steps, o.two_bone_use_pole, o.pole_x, o.pole_y, o.pole_z);
     std::fprintf(stderr, "solver %d, workspace goals %d, params:", static_cast<int>(kind), ws_goals);
     for (int i = 0; i < input.size(); ++i) std::fprintf(stderr, " %.17g", input[i]);
-    std::fprintf(stderr, "\nresult: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
+    std::fprintf(stderr, "\n");
+  }
+  const SolveResult r = solve(kind, chain, goals, o, ws, params);
+  count(kind, r.reason);
+  if (dump) {
+    std::fprintf(stderr, "result: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
                  r.iterations, r.initial_error, r.final_error, r.message.c_str());
     for (int i = 0; i < params.size(); ++i) std::fprintf(stderr, " %.17g", params[i]);
     std::fprintf(stderr, "\n");
