@@ -45,8 +45,9 @@ Message SolverOptions::validate() const {
   if (!(bfgs_wolfe_c1 > 0.0 && bfgs_wolfe_c1 < bfgs_wolfe_c2 && bfgs_wolfe_c2 < 1.0))
     return Message::format("bfgs_wolfe_c1/c2 must satisfy 0 < c1 < c2 < 1, got c1=%g c2=%g",
                            bfgs_wolfe_c1, bfgs_wolfe_c2);
-  if (bfgs_max_line_search_steps <= 0)
-    return Message::format("bfgs_max_line_search_steps must be > 0, got %d", bfgs_max_line_search_steps);
+  if (bfgs_max_line_search_steps <= 0 || bfgs_max_line_search_steps > kMaxBfgsLineSearchSteps)
+    return Message::format("bfgs_max_line_search_steps must be in [1, %d], got %d", kMaxBfgsLineSearchSteps,
+                           bfgs_max_line_search_steps);
   if (max_restarts < 0) return Message::format("max_restarts must be >= 0 (0 = none), got %d", max_restarts);
   if (!(std::isfinite(time_budget_usec) && time_budget_usec >= 0.0))
     return Message::format("time_budget_usec must be >= 0 (0 = no budget), got %g", time_budget_usec);

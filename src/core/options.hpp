@@ -18,6 +18,9 @@ constexpr int kSolverKindCount = 6;
 // 2^-60 of any step is below the resolution of a double angle: more halvings only cost time
 // (1e7 of them took 79 s for one solve).
 constexpr int kMaxPinvHalvings = 60;
+// The same for the BFGS line search's trial steps (the fuzzer's 227380621 ran past 30 s): its
+// bracket shrinks at every step, and 100 steps are far past where the step stops changing.
+constexpr int kMaxBfgsLineSearchSteps = 100;
 const char* to_string(SolverKind kind);
 
 struct SolverOptions {
@@ -72,7 +75,7 @@ struct SolverOptions {
   // --- BFGS (Wolfe line search, Nocedal & Wright Alg. 3.5/3.6)
   double bfgs_wolfe_c1 = 1e-4;         // sufficient decrease, 0 < c1 < c2 < 1
   double bfgs_wolfe_c2 = 0.9;          // curvature condition
-  int bfgs_max_line_search_steps = 20; // > 0
+  int bfgs_max_line_search_steps = 20; // in [1, kMaxBfgsLineSearchSteps]
 
   // Empty message when valid; otherwise names the field: "position_tolerance must be > 0, got -1".
   Message validate() const;

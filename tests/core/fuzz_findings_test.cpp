@@ -307,5 +307,17 @@ TEST(FuzzFindings, PinvMaxHalvingsBounded) {
   EXPECT_TRUE(contains(o.validate(), "pinv_max_halvings"));
 }
 
+// Found by the fuzzer (a timeout): bfgs_max_line_search_steps was unbounded, and 227380621 of
+// them kept one BFGS solve running for over 30 s.
+TEST(FuzzFindings, BfgsLineSearchStepsBounded) {
+  SolverOptions o;
+  o.bfgs_max_line_search_steps = 227380621;
+  EXPECT_TRUE(contains(o.validate(), "bfgs_max_line_search_steps must be in [1, 100], got 227380621"));
+  o.bfgs_max_line_search_steps = kMaxBfgsLineSearchSteps;
+  EXPECT_TRUE(o.validate().empty());
+  o.bfgs_max_line_search_steps = 0;
+  EXPECT_TRUE(contains(o.validate(), "bfgs_max_line_search_steps"));
+}
+
 }  // namespace
 }  // namespace ikchain

@@ -265,6 +265,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const int goal_count = d.ConsumeIntegralInRange<int>(0, 5);
   std::vector<Goal> goals(static_cast<size_t>(goal_count));
   const double reach = chain.valid() ? chain.total_length() : 2.0;
+  // Reachable goals too (so "converged" is claimed often enough to be checked): the pose of a
+  // random configuration, by the independent FK.
+  Pose reachable;
+  if (chain.valid()) {
+    std::vector<double> q(static_cast<size_t>(chain.dof_count()));
+    for (double& v : q) v = d.ConsumeFloatingPointInRange<double>(-3.0, 3.0);
+    reachable = reference_fk(joints, tip_offset, q.data());
+  }
   for (Goal& g : goals) {
     const int kind = d.ConsumeIntegralInRange<int>(0, 14);
     g.kind = kind < 6    ? GoalKind::kPosition
@@ -280,6 +288,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         glm::dquat(pick_mostly(d, 1.0), pick_mostly(d, 1.0), pick_mostly(d, 1.0), pick_mostly(d, 1.0));
     g.aim_axis = pick_vec(d, 1.0);
     g.aim_direction = pick_vec(d, 1.0);
+    if (chain.valid() && g.effector >= 0 && g.effector <= n && d.ConsumeBool()) {
+      const int k = g.effector == 0 ? n : g.effector;
+      g.target_position = k == n ? reachable.tip : reachable.origins[k];
+      g.target_orientation = reachable.orientations[k - 1];
+      g.aim_direction = reachable.orientations[k - 1] * g.aim_axis;
+    }
   }
 
   // ---------------------------------------------------------------- the options
@@ -332,9 +346,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const Eigen::VectorXd input = params;
 
   // ---------------------------------------------------------------- the solve
-  const SolveResult r = solve(kind, chain, goals, o, ws, params);
-  count(kind, r.reason);
-  if (std::getenv("IKCHAIN_FUZZ_DUMP")) {  // the decoded input, to turn a finding into a test
+  const bool dump = std::getenv("IKCHAIN_FUZZ_DUMP") != nullptr;
+  if (dump) {  // the decoded input, to turn a finding into a test
     std::fprintf(stderr, "chain: %d joints, build '%s'\n", n, built.c_str());
     for (int i = 0; i < n; ++i) {
       const JointDesc& j = joints[i];
@@ -370,7 +383,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                  o.time_budget_usec, o.max_restarts, o.restart_seed);
     std::fprintf(stderr, "solver %d, workspace goals %d, params:", static_cast<int>(kind), ws_goals);
     for (int i = 0; i < input.size(); ++i) std::fprintf(stderr, " %.17g", input[i]);
-    std::fprintf(stderr, "\nresult: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
+    std::fprintf(stderr, "\n");
+  }
+  const SolveResult r = solve(kind, chain, goals, o, ws, params);
+  count(kind, r.reason);
+  if (dump) {
+    std::fprintf(stderr, "result: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
                  r.iterations, r.initial_error, r.final_error, r.message.c_str());
     for (int i = 0; i < params.size(); ++i) std::fprintf(stderr, " %.17g", params[i]);
     std::fprintf(stderr, "\n");
