@@ -127,6 +127,10 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("get_orientation_tolerance", &IKChain::get_orientation_tolerance);
   b.method("set_time_budget_usec", &IKChain::set_time_budget_usec, {"usec"});
   b.method("get_time_budget_usec", &IKChain::get_time_budget_usec);
+  b.method("set_max_restarts", &IKChain::set_max_restarts, {"restarts"});
+  b.method("get_max_restarts", &IKChain::get_max_restarts);
+  b.method("set_restart_seed", &IKChain::set_restart_seed, {"seed"});
+  b.method("get_restart_seed", &IKChain::get_restart_seed);
   b.method("set_deterministic", &IKChain::set_deterministic, {"enabled"});
   b.method("is_deterministic", &IKChain::is_deterministic);
   b.method("get_last_result", &IKChain::get_last_result);
@@ -198,6 +202,9 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.property({"time_budget_usec", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
               "0,100000,1,or_greater,suffix:us"},
              "set_time_budget_usec", "get_time_budget_usec");
+  b.property({"max_restarts", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_RANGE, "0,100,1"},
+             "set_max_restarts", "get_max_restarts");
+  b.property({"restart_seed", GDEXTENSION_VARIANT_TYPE_INT}, "set_restart_seed", "get_restart_seed");
   b.property({"deterministic", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_deterministic", "is_deterministic");
 
   b.virtual_method("_process_modification_with_delta",
@@ -358,6 +365,17 @@ void IKChain::set_time_budget_usec(double usec) {
   options_.time_budget_usec = time_budget_usec_;
 }
 
+void IKChain::set_max_restarts(int64_t n) {
+  max_restarts_ = std::clamp<int64_t>(n, 0, 100);
+  if (max_restarts_ != n) report_clamped(kClass, "max_restarts", "0..100", double(n), double(max_restarts_));
+  options_.max_restarts = int(max_restarts_);
+}
+
+void IKChain::set_restart_seed(int64_t seed) {
+  restart_seed_ = seed;
+  options_.restart_seed = unsigned(uint64_t(seed));  // any value; the same seed gives the same restarts
+}
+
 void IKChain::set_deterministic(bool on) {
   deterministic_ = on;
   options_.warm_start = !on;
@@ -384,6 +402,7 @@ gdx::Dictionary IKChain::get_last_result() const {
   put("reached", gdx::Variant(usable && written_.max_position <= tolerance_ &&
                               written_.max_orientation <= orientation_tolerance_));
   put("budget_exhausted", gdx::Variant(last_.budget_exhausted));
+  put("restarts", gdx::Variant(int64_t(last_.restarts)));
   put("solver", gdx::Variant(usable ? solver_info(last_solver_).display_name : ""));
   put("message", gdx::Variant(last_.message.c_str()));
   return d;

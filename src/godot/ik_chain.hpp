@@ -97,6 +97,10 @@ class IKChain {
   double get_orientation_tolerance() const { return orientation_tolerance_; }
   void set_time_budget_usec(double usec);
   double get_time_budget_usec() const { return time_budget_usec_; }
+  void set_max_restarts(int64_t n);
+  int64_t get_max_restarts() const { return max_restarts_; }
+  void set_restart_seed(int64_t seed);
+  int64_t get_restart_seed() const { return restart_seed_; }
   void set_deterministic(bool on);
   bool is_deterministic() const { return deterministic_; }
 
@@ -165,6 +169,8 @@ class IKChain {
   double tolerance_ = kDefaultTolerance;
   double orientation_tolerance_ = kDefaultOrientationTolerance;
   double time_budget_usec_ = 0.0;
+  int64_t max_restarts_ = 0;
+  int64_t restart_seed_ = 1;
   bool deterministic_ = false;
 
   // Built lazily from the skeleton (rebuild()); the per-frame path only reads these.
