@@ -295,8 +295,11 @@ func _on_skeleton_updated() -> void:
 		_run.add("iterations", float(r.get("iterations", 0)))
 	if options["demo_seconds"] > 0.0 and time >= _next_report:
 		_next_report += 1.0
-		print("missile_guidance t=%2.0f s: solver %s | mean aim error %.4f° | shots %d, hits %d | %.1f µs per solve" % [
-				time, str(r.get("solver", "?")), rad_to_deg(_second.mean("aim")), shots, hits, _second.mean("micros")])
+		# No aim samples in a second the drone was down (respawning): say so instead of 0/0.
+		var aim := rad_to_deg(_second.mean("aim"))
+		var aim_text := "%.4f°" % aim if is_finite(aim) else "- (no drone)"
+		print("missile_guidance t=%2.0f s: solver %s | mean aim error %s | shots %d, hits %d | %.1f µs per solve" % [
+				time, str(r.get("solver", "?")), aim_text, shots, hits, _second.mean("micros")])
 		_second.clear()
 
 
