@@ -29,6 +29,14 @@ static_assert(int64_t(SolverKind::kTwoBone) == IKChain::SOLVER_TWO_BONE && int64
                   int64_t(SolverKind::kDLS) == IKChain::SOLVER_DLS && int64_t(SolverKind::kBFGS) == IKChain::SOLVER_BFGS &&
                   int64_t(SolverKind::kFABRIK) == IKChain::SOLVER_FABRIK && kSolverKindCount == IKChain::SOLVER_AUTO,
               "IKChain.Solver values are the core's SolverKind values, then Auto");
+// TipAxis (the engine-free mapping) takes IKChain.Axis values as they are.
+static_assert(int(TipAxis::kPlusX) == IKChain::AXIS_PLUS_X, "TipAxis follows IKChain.Axis");
+static_assert(int(TipAxis::kMinusX) == IKChain::AXIS_MINUS_X, "TipAxis follows IKChain.Axis");
+static_assert(int(TipAxis::kPlusY) == IKChain::AXIS_PLUS_Y, "TipAxis follows IKChain.Axis");
+static_assert(int(TipAxis::kMinusY) == IKChain::AXIS_MINUS_Y, "TipAxis follows IKChain.Axis");
+static_assert(int(TipAxis::kPlusZ) == IKChain::AXIS_PLUS_Z, "TipAxis follows IKChain.Axis");
+static_assert(int(TipAxis::kMinusZ) == IKChain::AXIS_MINUS_Z, "TipAxis follows IKChain.Axis");
+
 const char* solver_constant(int64_t value) {
   static constexpr const char* kNames[] = {"SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS",
                                            "SOLVER_BFGS",     "SOLVER_FABRIK", "SOLVER_AUTO"};
@@ -527,8 +535,9 @@ void IKChain::collect_chain_problems(const gdx::Skeleton3D& skel, std::vector<Pr
                                     "the element."});
       continue;
     }
+    const int bone = int(skel.find_bone(joint->get_bone_name()));
     size_t k = 0;
-    while (k < joint_count && skel.get_bone_name(bones[k]).utf8() != joint->bone_name()) ++k;
+    while (k < joint_count && bones[k] != bone) ++k;
     if (k == joint_count) {
       problems.push_back({"joints", where + " names bone '" + joint->bone_name() +
                                         "', which is not a joint of this chain; set its bone_name to one of the "
@@ -565,21 +574,7 @@ void IKChain::collect_chain_problems(const gdx::Skeleton3D& skel, std::vector<Pr
     bone.pose.position = gdx::to_glm(skel.get_bone_pose_position(bones[i]));
     bone.pose.rotation = gdx::to_glm(skel.get_bone_pose_rotation(bones[i]));
     bone.pose.scale = gdx::to_glm(skel.get_bone_pose_scale(bones[i]));
-    if (const IKChainJoint* j = settings[i]) {
-      JointSettings& s = bone.joint;
-      const JointLimits l = j->limits();
-      s.type = j->joint_type();
-      s.hinge_axis_in_bone = j->hinge_axis_in_bone();
-      s.hinge_limit_enabled = j->is_hinge_limit_enabled();
-      s.hinge_min = l.hinge_min;
-      s.hinge_max = l.hinge_max;
-      s.cone_limit_enabled = j->is_cone_limit_enabled();
-      s.cone_angle = l.cone_angle;
-      s.twist_limit_enabled = j->is_twist_limit_enabled();
-      s.twist_min = l.twist_min;
-      s.twist_max = l.twist_max;
-      s.twist_axis_in_bone = l.twist_axis;
-    }
+    if (const IKChainJoint* j = settings[i]) bone.joint = j->settings();
     desc->bones.push_back(std::move(bone));
   }
 }
@@ -612,6 +607,12 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
     problems.push_back({"solver", std::string("IKChain: solver ") + info->display_name +
                                       " only reaches a position; turn off use_target_rotation (or goal_mode Aim), or "
                                       "pick another solver (Auto picks one that can)."});
+}
+
+void IKChain::resolve_goals(const SkeletonChain& chain, std::vector<ExtraGoal>* goals, std::vector<Problem>& problems,
+                            std::vector<Problem>& unmovable) const {
+  const gdx::Node self = gdx::Node::unchecked(owner_);
+  const SolverInfo* info = solver_ == SOLVER_AUTO ? nullptr : &solver_info(SolverKind(solver_));
   for (int64_t i = 0; i < goals_.size(); ++i) {
     gdx::ObjectPtr object = nullptr;
     gdx::variant_to(goals_.at(i), object);
@@ -622,6 +623,7 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
                                    "element."});
       continue;
     }
+    // A missing target only skips the goal per frame (the node may appear later).
     if (!gdx::Node3D::cast(self.get_node_or_null(goal->get_target())))
       problems.push_back({"goals", where + " (bone '" + goal->bone_name() +
                                        "'): target does not point to a Node3D; set its target (a path relative to "
@@ -635,6 +637,29 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
       problems.push_back({"solver", std::string("IKChain: solver ") + info->display_name +
                                         " pursues orientation and aim goals on the tip only; make goals[" +
                                         std::to_string(i) + "] a position goal or pick another solver."});
+    if (!chain.valid()) continue;
+    int chain_bone = -1;
+    for (int k = 0; k < chain.bone_count(); ++k)
+      if (chain.bone_name(k) == goal->bone_name()) chain_bone = k;
+    ExtraGoal e;
+    e.kind = goal->goal_kind();
+    e.weight = goal->get_weight();
+    e.target = goal->get_target();
+    // A position goal pulls the bone's origin (effector k); an orientation or aim goal turns the
+    // bone's own frame, which the core exposes as the orientation of effector k + 1.
+    e.effector = e.kind == GoalKind::kPosition
+                     ? chain.effector_of_bone(chain_bone)
+                     : (chain_bone >= 0 && chain_bone < chain.joint_count() ? chain_bone + 1 : -1);
+    if (e.effector <= 0) {
+      unmovable.push_back({"goals", where + " names bone '" + goal->bone_name() +
+                                        "', which this goal cannot move (not in the chain" +
+                                        (e.kind == GoalKind::kPosition ? ", or the root bone whose origin is fixed"
+                                                                       : "") +
+                                        "); set its bone_name to a bone of the chain."});
+      continue;
+    }
+    e.axis_in_effector = gdx::to_glm(goal->get_aim_axis());
+    if (goals != nullptr) goals->push_back(e);
   }
 }
 
@@ -642,13 +667,14 @@ gdx::PackedStringArray IKChain::get_configuration_warnings() const {
   std::vector<Problem> problems;
   SkeletonChainDesc desc;
   collect_chain_problems(skeleton(), problems, &desc);
+  // What the builder rejects (limits, lengths), checked on the settings as they are now.
+  SkeletonChain check;
   if (!desc.bones.empty()) {
-    // What the builder rejects (limits, lengths), checked on the settings as they are now.
-    SkeletonChain check;
     const Message built = check.build(desc);
     if (!built.empty()) problems.push_back({"joints", std::string("IKChain: cannot build the chain: ") + built.c_str()});
   }
   collect_goal_problems(problems);
+  resolve_goals(check, nullptr, problems, problems);
   if (chain_ok_ && mapping_.has_non_uniform_scale()) problems.push_back({"root_bone", mapping_.scale_warning().c_str()});
   // The chain as last built: what the builder rejected (limits, lengths) and what the solver refused.
   for (const Problem& p : chain_problems_) {
@@ -700,35 +726,11 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
     root_bone_index_ = desc.bones.front().skeleton_bone;
     tip_bone_index_ = desc.bones.back().skeleton_bone;
 
-    // Extra goals: effector and frame of each IKChainGoal (problems were reported as warnings).
+    // Extra goals: effector and frame of each IKChainGoal. A goal on a bone the chain cannot move
+    // stops the chain; the other problems only show as warnings (the chain runs without the goal).
     extra_goals_.clear();
-    for (int64_t i = 0; i < goals_.size(); ++i) {
-      gdx::ObjectPtr object = nullptr;
-      gdx::variant_to(goals_.at(i), object);
-      const IKChainGoal* g = IKChainGoal::from_object(object);
-      if (g == nullptr) continue;
-      int chain_bone = -1;
-      for (int k = 0; k < bones; ++k)
-        if (mapping_.bone_name(k) == g->bone_name()) chain_bone = k;
-      ExtraGoal e;
-      e.kind = g->goal_kind();
-      e.weight = g->get_weight();
-      e.target = g->get_target();
-      // A position goal pulls the bone's origin (effector k); an orientation or aim goal turns the
-      // bone's own frame, which the core exposes as the orientation of effector k + 1.
-      e.effector = e.kind == GoalKind::kPosition ? mapping_.effector_of_bone(chain_bone)
-                                                 : (chain_bone >= 0 && chain_bone < n ? chain_bone + 1 : -1);
-      if (e.effector <= 0) {
-        chain_problems_.push_back(
-            {"goals", "IKChain: goals[" + std::to_string(i) + "] names bone '" + g->bone_name() +
-                          "', which this goal cannot move (not in the chain" +
-                          (e.kind == GoalKind::kPosition ? ", or the root bone whose origin is fixed" : "") +
-                          "); set its bone_name to a bone of the chain."});
-        continue;
-      }
-      e.axis_in_effector = gdx::to_glm(g->get_aim_axis());
-      extra_goals_.push_back(e);
-    }
+    std::vector<Problem> warnings_only;
+    resolve_goals(mapping_, &extra_goals_, warnings_only, chain_problems_);
     if (chain_problems_.empty()) {
       const int max_goals = 2 + int(extra_goals_.size());
       workspace_.reset(mapping_.chain(), max_goals);

@@ -124,6 +124,14 @@ class IKChain {
     std::string property;  // the property to fix
     std::string message;
   };
+  // An IKChainGoal resolved against the chain: its effector index and kind.
+  struct ExtraGoal {
+    int effector = 0;
+    GoalKind kind = GoalKind::kPosition;
+    double weight = 1.0;
+    glm::dvec3 axis_in_effector{0.0, 1.0, 0.0};
+    gdx::NodePath target;
+  };
 
   void mark_dirty();
   void settings_changed();  // a setting that needs no rebuild but may change the warnings
@@ -131,7 +139,15 @@ class IKChain {
   // Bones, joint settings and the solver's fit to the goals; one entry per problem, with its fix.
   void collect_chain_problems(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems,
                               SkeletonChainDesc* desc) const;
+  // The main goal (target, pole, aim axis) and what the solver can pursue of it.
   void collect_goal_problems(std::vector<Problem>& problems) const;
+  // The goals array, for the warnings and the rebuild alike: each IKChainGoal whose bone `chain`
+  // can move goes into `goals` (when given), each element that is not usable gets a problem with
+  // its fix. A goal on a bone the chain cannot move goes to `unmovable` (the chain must not run
+  // without it; checked only when `chain` is valid); any other problem to `problems` (the element
+  // is left out, or a goal without a target node is skipped per frame).
+  void resolve_goals(const SkeletonChain& chain, std::vector<ExtraGoal>* goals, std::vector<Problem>& problems,
+                     std::vector<Problem>& unmovable) const;
   void rebuild(const gdx::Skeleton3D& skeleton);
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
   void watch_skeleton(const gdx::Skeleton3D& skeleton);
@@ -198,15 +214,7 @@ class IKChain {
   bool have_good_pose_ = false;
   std::vector<Goal> goal_buffer_;  // sized at rebuild; the per-frame path fills it in place
   int goal_count_ = 0;
-  // Extra goals resolved at rebuild: effector index and kind for each IKChainGoal.
-  struct ExtraGoal {
-    int effector = 0;
-    GoalKind kind = GoalKind::kPosition;
-    double weight = 1.0;
-    glm::dvec3 axis_in_effector{0.0, 1.0, 0.0};
-    gdx::NodePath target;
-  };
-  std::vector<ExtraGoal> extra_goals_;
+  std::vector<ExtraGoal> extra_goals_;  // resolved at rebuild
 
   std::vector<std::string> runtime_reported_;
 

@@ -4,7 +4,6 @@
 #include <atomic>
 #include <cmath>
 
-#include "binding/math.hpp"
 #include "property_report.hpp"
 
 namespace ikchain::godot {
@@ -15,6 +14,11 @@ namespace {
 std::atomic<uint64_t> g_generation{1};
 constexpr double kPi = 3.14159265358979323846;
 constexpr const char* kClass = "IKChainJoint";
+
+// The registered JointType values are the core's JointType values (settings() hands them over).
+static_assert(int64_t(JointType::kBall) == IKChainJoint::JOINT_BALL &&
+                  int64_t(JointType::kHinge) == IKChainJoint::JOINT_HINGE,
+              "IKChainJoint.JointType values are the core's JointType values");
 
 // Keeps an angle finite and within [lo, hi], reporting a clamp.
 double clamp_angle(const char* property, const char* range, double radians, double lo, double hi, double fallback) {
@@ -100,65 +104,51 @@ void IKChainJoint::set_bone_name(const gdx::String& name) {
   changed();
 }
 void IKChainJoint::set_type(int64_t type) {
-  type_ = std::clamp<int64_t>(type, JOINT_BALL, JOINT_HINGE);
-  if (type_ != type) report_clamped(kClass, "type", "0..1 (IKChainJoint.JOINT_*)", double(type), double(type_));
+  const int64_t used = std::clamp<int64_t>(type, JOINT_BALL, JOINT_HINGE);
+  if (used != type) report_clamped(kClass, "type", "0..1 (IKChainJoint.JOINT_*)", double(type), double(used));
+  settings_.type = JointType(used);
   changed();
 }
 void IKChainJoint::set_hinge_axis(const gdx::Vector3& axis) {
-  hinge_axis_ = axis;  // a zero or non-finite axis is reported by the IKChain's configuration warnings
+  // A zero or non-finite axis is reported by the IKChain's configuration warnings.
+  settings_.hinge_axis_in_bone = gdx::to_glm(axis);
   changed();
 }
 void IKChainJoint::set_hinge_limit_enabled(bool on) {
-  hinge_limit_enabled_ = on;
+  settings_.hinge_limit_enabled = on;
   changed();
 }
 void IKChainJoint::set_hinge_min(double radians) {
-  hinge_min_ = clamp_angle("hinge_min", "[-pi, pi] rad", radians, -kPi, kPi, hinge_min_);
+  settings_.hinge_min = clamp_angle("hinge_min", "[-pi, pi] rad", radians, -kPi, kPi, settings_.hinge_min);
   changed();
 }
 void IKChainJoint::set_hinge_max(double radians) {
-  hinge_max_ = clamp_angle("hinge_max", "[-pi, pi] rad", radians, -kPi, kPi, hinge_max_);
+  settings_.hinge_max = clamp_angle("hinge_max", "[-pi, pi] rad", radians, -kPi, kPi, settings_.hinge_max);
   changed();
 }
 void IKChainJoint::set_cone_limit_enabled(bool on) {
-  cone_limit_enabled_ = on;
+  settings_.cone_limit_enabled = on;
   changed();
 }
 void IKChainJoint::set_cone_angle(double radians) {
-  cone_angle_ = clamp_angle("cone_angle", "[0, pi] rad", radians, 0.0, kPi, cone_angle_);
+  settings_.cone_angle = clamp_angle("cone_angle", "[0, pi] rad", radians, 0.0, kPi, settings_.cone_angle);
   changed();
 }
 void IKChainJoint::set_twist_limit_enabled(bool on) {
-  twist_limit_enabled_ = on;
+  settings_.twist_limit_enabled = on;
   changed();
 }
 void IKChainJoint::set_twist_min(double radians) {
-  twist_min_ = clamp_angle("twist_min", "[-pi, pi] rad", radians, -kPi, kPi, twist_min_);
+  settings_.twist_min = clamp_angle("twist_min", "[-pi, pi] rad", radians, -kPi, kPi, settings_.twist_min);
   changed();
 }
 void IKChainJoint::set_twist_max(double radians) {
-  twist_max_ = clamp_angle("twist_max", "[-pi, pi] rad", radians, -kPi, kPi, twist_max_);
+  settings_.twist_max = clamp_angle("twist_max", "[-pi, pi] rad", radians, -kPi, kPi, settings_.twist_max);
   changed();
 }
 void IKChainJoint::set_twist_axis(const gdx::Vector3& axis) {
-  twist_axis_ = axis;
+  settings_.twist_axis_in_bone = gdx::to_glm(axis);
   changed();
-}
-
-glm::dvec3 IKChainJoint::hinge_axis_in_bone() const { return gdx::to_glm(hinge_axis_); }
-
-JointLimits IKChainJoint::limits() const {
-  JointLimits l;
-  l.has_hinge_limit = type_ == JOINT_HINGE && hinge_limit_enabled_;
-  l.hinge_min = hinge_min_;
-  l.hinge_max = hinge_max_;
-  l.has_cone_limit = type_ == JOINT_BALL && cone_limit_enabled_;
-  l.cone_angle = cone_angle_;
-  l.has_twist_limit = type_ == JOINT_BALL && twist_limit_enabled_;
-  l.twist_min = twist_min_;
-  l.twist_max = twist_max_;
-  l.twist_axis = gdx::to_glm(twist_axis_);
-  return l;
 }
 
 }  // namespace ikchain::godot

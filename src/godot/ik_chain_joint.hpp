@@ -7,7 +7,8 @@
 
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
-#include "core/chain.hpp"
+#include "binding/math.hpp"
+#include "skeleton_chain.hpp"
 
 namespace ikchain::godot {
 
@@ -29,49 +30,38 @@ class IKChainJoint {
   gdx::String get_bone_name() const { return gdx::String(bone_name_); }
   const std::string& bone_name() const { return bone_name_; }
   void set_type(int64_t type);
-  int64_t get_type() const { return type_; }
+  int64_t get_type() const { return int64_t(settings_.type); }
   void set_hinge_axis(const gdx::Vector3& axis);
-  gdx::Vector3 get_hinge_axis() const { return hinge_axis_; }
+  gdx::Vector3 get_hinge_axis() const { return gdx::from_glm(settings_.hinge_axis_in_bone); }
   void set_hinge_limit_enabled(bool on);
-  bool is_hinge_limit_enabled() const { return hinge_limit_enabled_; }
+  bool is_hinge_limit_enabled() const { return settings_.hinge_limit_enabled; }
   void set_hinge_min(double radians);
-  double get_hinge_min() const { return hinge_min_; }
+  double get_hinge_min() const { return settings_.hinge_min; }
   void set_hinge_max(double radians);
-  double get_hinge_max() const { return hinge_max_; }
+  double get_hinge_max() const { return settings_.hinge_max; }
   void set_cone_limit_enabled(bool on);
-  bool is_cone_limit_enabled() const { return cone_limit_enabled_; }
+  bool is_cone_limit_enabled() const { return settings_.cone_limit_enabled; }
   void set_cone_angle(double radians);
-  double get_cone_angle() const { return cone_angle_; }
+  double get_cone_angle() const { return settings_.cone_angle; }
   void set_twist_limit_enabled(bool on);
-  bool is_twist_limit_enabled() const { return twist_limit_enabled_; }
+  bool is_twist_limit_enabled() const { return settings_.twist_limit_enabled; }
   void set_twist_min(double radians);
-  double get_twist_min() const { return twist_min_; }
+  double get_twist_min() const { return settings_.twist_min; }
   void set_twist_max(double radians);
-  double get_twist_max() const { return twist_max_; }
+  double get_twist_max() const { return settings_.twist_max; }
   void set_twist_axis(const gdx::Vector3& axis);
-  gdx::Vector3 get_twist_axis() const { return twist_axis_; }
+  gdx::Vector3 get_twist_axis() const { return gdx::from_glm(settings_.twist_axis_in_bone); }
 
-  // The core's joint type and limits (joint space = the bone's own frame after its rest).
-  JointType joint_type() const { return type_ == JOINT_HINGE ? JointType::kHinge : JointType::kBall; }
-  glm::dvec3 hinge_axis_in_bone() const;
-  JointLimits limits() const;
+  // The settings as the skeleton mapping takes them (the properties are stored there, so the
+  // defaults and the mapping exist once).
+  const JointSettings& settings() const { return settings_; }
 
  private:
   void changed();
 
   gdx::ObjectPtr owner_;
   std::string bone_name_;
-  int64_t type_ = JOINT_BALL;
-  gdx::Vector3 hinge_axis_{1, 0, 0};
-  bool hinge_limit_enabled_ = false;
-  double hinge_min_ = -3.14159265358979323846;
-  double hinge_max_ = 3.14159265358979323846;
-  bool cone_limit_enabled_ = false;
-  double cone_angle_ = 3.14159265358979323846;
-  bool twist_limit_enabled_ = false;
-  double twist_min_ = -3.14159265358979323846;
-  double twist_max_ = 3.14159265358979323846;
-  gdx::Vector3 twist_axis_{0, 1, 0};
+  JointSettings settings_;
 };
 
 }  // namespace ikchain::godot

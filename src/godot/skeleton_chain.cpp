@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 
 #include "core/so3.hpp"
 
@@ -9,7 +11,6 @@ namespace ikchain::godot {
 
 namespace {
 
-constexpr double kPi = so3::kPi;
 constexpr double kTwoPi = 2.0 * so3::kPi;
 
 bool finite(const glm::dmat3& m) {
@@ -83,6 +84,41 @@ int shape_offsets(Span<const BonePose> poses, int joints, bool extend, const glm
   }
   tip_offset = inherited_scale * (extend ? extension : poses[joints].position);
   return non_uniform;
+}
+
+// The core joint of one bone's settings. A disabled limit is not passed on (nor checked), and
+// neither is the twist axis when no limit of the ball joint uses it.
+JointDesc joint_desc(const JointSettings& s) {
+  JointDesc j;
+  j.type = s.type;
+  if (s.type == JointType::kHinge) {
+    j.hinge_axis = s.hinge_axis_in_bone;
+    if (s.hinge_limit_enabled) {
+      j.limits.has_hinge_limit = true;
+      j.limits.hinge_min = s.hinge_min;
+      j.limits.hinge_max = s.hinge_max;
+    }
+    return j;
+  }
+  if (s.cone_limit_enabled || s.twist_limit_enabled) j.limits.twist_axis = s.twist_axis_in_bone;
+  if (s.cone_limit_enabled) {
+    j.limits.has_cone_limit = true;
+    j.limits.cone_angle = s.cone_angle;
+  }
+  if (s.twist_limit_enabled) {
+    j.limits.has_twist_limit = true;
+    j.limits.twist_min = s.twist_min;
+    j.limits.twist_max = s.twist_max;
+  }
+  return j;
+}
+
+// True when a core build message names a field set in an IKChainJoint (JointSettings; the core
+// spells them as those properties are named), not one that comes from the bones' poses.
+bool names_joint_setting(const char* message) {
+  for (const char* field : {"hinge_axis", "hinge_min", "hinge_max", "cone_angle", "twist_axis", "twist_min", "twist_max"})
+    if (std::strstr(message, field) != nullptr) return true;
+  return false;
 }
 
 double shape_length(const glm::dvec3* offsets, int joints, const glm::dvec3& tip_offset) {
@@ -233,69 +269,21 @@ Message SkeletonChain::build_from(const SkeletonChainDesc& desc) {
 
   if (Message e = check_pose(Span<const BonePose>(poses_)); !e.empty()) return e;
 
+  // The limits themselves are validated by the core builder (its messages are mapped to bone
+  // names below); here only what the core cannot know: the rest basis and the joint types the
+  // Godot layer maps (ball and hinge).
   std::vector<JointDesc> joints;
   joints.reserve(size_t(n));
   for (int i = 0; i < n; ++i) {
     const ChainBoneDesc& b = desc.bones[size_t(i)];
     const char* name = b.name.c_str();
-    const JointSettings& s = b.joint;
     if (!finite(b.rest_basis_in_parent) || std::abs(glm::determinant(b.rest_basis_in_parent)) < 1e-18)
       return Message::format("bone '%s': rest basis is not finite or has zero scale; fix the bone's rest", name);
-    JointDesc j;
+    if (b.joint.type != JointType::kBall && b.joint.type != JointType::kHinge)
+      return Message::format("joint '%s': type (%d) must be JOINT_BALL (0) or JOINT_HINGE (1)", name,
+                             int(b.joint.type));
+    JointDesc j = joint_desc(b.joint);
     j.rest_rotation = rotation_of_basis(b.rest_basis_in_parent);
-    if (s.type == JointType::kHinge) {
-      j.type = JointType::kHinge;
-      const glm::dvec3& a = s.hinge_axis_in_bone;
-      const double len = glm::length(a);
-      if (!std::isfinite(len) || len < 1e-9)
-        return Message::format("joint '%s': hinge_axis (%g, %g, %g) must be a finite non-zero vector in the bone's "
-                               "frame, e.g. (1, 0, 0)",
-                               name, a.x, a.y, a.z);
-      j.hinge_axis = a / len;
-      if (s.hinge_limit_enabled) {
-        if (!std::isfinite(s.hinge_min) || !std::isfinite(s.hinge_max))
-          return Message::format("joint '%s': hinge_min (%g) and hinge_max (%g) must be finite", name, s.hinge_min,
-                                 s.hinge_max);
-        if (s.hinge_min > s.hinge_max)
-          return Message::format("joint '%s': hinge_min (%g) > hinge_max (%g); swap them", name, s.hinge_min,
-                                 s.hinge_max);
-        j.limits.has_hinge_limit = true;
-        j.limits.hinge_min = s.hinge_min;
-        j.limits.hinge_max = s.hinge_max;
-      }
-    } else if (s.type == JointType::kBall) {
-      j.type = JointType::kBall;
-      if (s.cone_limit_enabled || s.twist_limit_enabled) {
-        const glm::dvec3& a = s.twist_axis_in_bone;
-        const double len = glm::length(a);
-        if (!std::isfinite(len) || len < 1e-9)
-          return Message::format("joint '%s': twist_axis (%g, %g, %g) must be a finite non-zero vector in the "
-                                 "bone's frame, e.g. (0, 1, 0)",
-                                 name, a.x, a.y, a.z);
-        j.limits.twist_axis = a / len;
-      }
-      if (s.cone_limit_enabled) {
-        if (!(s.cone_angle >= 0.0 && s.cone_angle <= kPi))
-          return Message::format("joint '%s': cone_angle (%g) must be in [0, pi] rad (0..180 degrees)", name,
-                                 s.cone_angle);
-        j.limits.has_cone_limit = true;
-        j.limits.cone_angle = s.cone_angle;
-      }
-      if (s.twist_limit_enabled) {
-        if (!(s.twist_min >= -kPi && s.twist_min <= kPi) || !(s.twist_max >= -kPi && s.twist_max <= kPi))
-          return Message::format("joint '%s': twist_min (%g) and twist_max (%g) must be in [-pi, pi] rad "
-                                 "(-180..180 degrees)",
-                                 name, s.twist_min, s.twist_max);
-        if (s.twist_min > s.twist_max)
-          return Message::format("joint '%s': twist_min (%g) > twist_max (%g); swap them", name, s.twist_min,
-                                 s.twist_max);
-        j.limits.has_twist_limit = true;
-        j.limits.twist_min = s.twist_min;
-        j.limits.twist_max = s.twist_max;
-      }
-    } else {
-      return Message::format("joint '%s': type (%d) must be JOINT_BALL (0) or JOINT_HINGE (1)", name, int(s.type));
-    }
     joints.push_back(j);
   }
 
@@ -313,9 +301,18 @@ Message SkeletonChain::build_from(const SkeletonChainDesc& desc) {
     builder.add_joint(joints[size_t(i)]);
   }
   builder.set_tip_offset(tip_offset_);
-  if (Message e = builder.build(chain_); !e.empty())
+  if (Message e = builder.build(chain_); !e.empty()) {
+    // The builder names a joint by its index ("joint 1: hinge_min (1.5) > hinge_max (0.5)"); the
+    // user knows it by its bone, and sets its limits in that bone's IKChainJoint.
+    int joint = -1, rest = 0;
+    if (std::sscanf(e.c_str(), "joint %d: %n", &joint, &rest) == 1 && rest > 0 && joint >= 0 && joint < n) {
+      const char* what = e.c_str() + rest;
+      return Message::format("joint '%s': %s%s", bones_[size_t(joint)].name.c_str(), what,
+                             names_joint_setting(what) ? "; fix it in the bone's IKChainJoint" : "");
+    }
     return Message::format("cannot build the chain from '%s' to '%s': %s", bones_.front().name.c_str(),
                            bones_.back().name.c_str(), e.c_str());
+  }
 
   tip_rotation_in_effector_ =
       extend_tip_bone_ ? glm::dquat(1.0, 0.0, 0.0, 0.0) : unit_or_identity(poses_[size_t(n)].rotation);

@@ -52,7 +52,7 @@ struct BonePose {
   glm::dvec3 scale{1.0};
 };
 
-// Values match IKChain's AXIS_* constants.
+// Values match IKChain's AXIS_* constants (static_asserts in ik_chain.cpp).
 enum class TipAxis : int {
   kPlusX = 0,
   kMinusX = 1,
