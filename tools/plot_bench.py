@@ -157,6 +157,25 @@ def cmd_robots_table(directory):
     print(f"Success: {meta['success']}. Times: CPU time of the solving thread (median / p90 / p99 µs); "
           f"wall p99 beside it. Restarts: up to {meta['restarts']}, mean used.")
     print()
+    arms = [a["arm"] for a in data["arms"]]
+    plain = [r for r in data["records"] if not r.get("skipped") and not r.get("time_budget_us")]
+    for title, goal, restarts in (("Full pose, restarts allowed", "full_pose", True),
+                                  ("Full pose, no restarts", "full_pose", False),
+                                  ("Position only, no restarts", "position", False)):
+        cells = [r for r in plain if r["goal"] == goal and bool(r["max_restarts"]) == restarts]
+        print(f"{title}: success · median µs · p99 µs (CPU time)")
+        print()
+        print("| solver | " + " | ".join(arms) + " |")
+        print("|---|" + "---|" * len(arms))
+        for solver in solvers_in(cells):
+            by_arm = {r["arm"]: r for r in cells if r["solver"] == solver}
+            row = []
+            for a in arms:
+                r = by_arm.get(a)
+                row.append(f"{100 * r['success_rate']:.2f} % · {fmt_us(r['cpu_median_us'])} · {fmt_us(r['cpu_p99_us'])}"
+                           + (f" ({r['trials']} goals)" if r["trials"] != meta["goals_per_arm"] else "") if r else "-")
+            print(f"| {solver} | " + " | ".join(row) + " |")
+        print()
     for arm in data["arms"]:
         print(f"**{arm['arm']}** ({arm['joints']} joints, {arm['base']} → {arm['tip']}, L = {arm['length_m']:.3f} m; "
               f"our FK vs KDL's: {arm['fk_vs_kdl_position_m']:.1e} m, {arm['fk_vs_kdl_rotation_rad']:.1e} rad)")
@@ -204,6 +223,7 @@ CHARTS = ["convergence.png", "ms_per_iteration.png", "iterations.png", "precisio
 
 def plot_robots(plt, directory, out_dir):
     """robots.png: per arm, success (full pose with restarts, position without) and median CPU µs."""
+    from matplotlib import ticker
     data = load(directory, "robots.json")
     meta = data["meta"]
     arms = [a["arm"] for a in data["arms"]]
@@ -230,6 +250,8 @@ def plot_robots(plt, directory, out_dir):
         axes[0][col].axhline(99.9, color="#d62728", linestyle="--", linewidth=1)
         axes[0][col].set_ylim(0, 105)
         axes[1][col].set_yscale("log")
+        axes[1][col].yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+        axes[1][col].yaxis.set_minor_formatter(ticker.NullFormatter())
         if goal == "full_pose":
             axes[1][col].axhline(30, color="#d62728", linestyle="--", linewidth=1)
         axes[0][col].legend(fontsize=7, ncol=2, loc="lower left")
