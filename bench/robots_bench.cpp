@@ -567,7 +567,7 @@ int main(int argc, char** argv) {
       robots::random_in_limits(arm.robot, rng, truth);
       targets.push_back(arm.kdl_fk(truth));
     }
-    // CCD and FABRIK with restarts fail most full poses, each failure 20 x 500 sweeps (tens of ms):
+    // CCD and FABRIK with restarts fail most full poses, and each failure costs 20 x 500 sweeps:
     // the first kGeometricRestartGoals goals keep the run short.
     const std::vector<Target> few_targets(targets.begin(), targets.begin() + std::min<int>(trials, kGeometricRestartGoals));
     auto geometric = [](const SolverSpec& sp) { return sp.kind == SolverKind::kCCD || sp.kind == SolverKind::kFABRIK; };
