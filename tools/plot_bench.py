@@ -6,7 +6,9 @@ No timing happens here: everything comes from the JSON written by bench/core_ben
 the private venv .deps/venv that `scripts/setup --plots` creates).
 
   tools/plot_bench.py table DIR               print the tables and the headline checks
-  tools/plot_bench.py plots DIR --out IMG_DIR  write IMG_DIR/*.png
+  tools/plot_bench.py robots-table DIR        the real-arm table (robots.json, bench/robots_bench.cpp)
+                                              as Markdown, as docs/benchmarks.md shows it
+  tools/plot_bench.py plots DIR --out IMG_DIR  write IMG_DIR/*.png (robots.png too when robots.json is there)
 """
 import argparse
 import json
@@ -22,8 +24,9 @@ COLORS = {
     "dls": "#d62728",
     "bfgs": "#9467bd",
     "kdl_lma": "#555555",
+    "kdl_nr_jl": "#aaaaaa",
 }
-ORDER = ["two_bone", "ccd", "fabrik", "jacobian_pinv", "dls", "bfgs", "kdl_lma"]
+ORDER = ["two_bone", "ccd", "fabrik", "jacobian_pinv", "dls", "bfgs", "kdl_lma", "kdl_nr_jl"]
 # The lecture's precision table (distance to a target 2 beyond reach; optimal 2).
 LECTURE = [("lecture JI", 5.85), ("lecture CCD", 3.37), ("lecture BFGS", 2.53)]
 SUCCESS_FOR_BEST = 0.99  # "best" = fastest median among solvers at least this reliable
@@ -134,6 +137,82 @@ def cmd_table(directory):
         print(line)
 
 
+def robots_row_name(r):
+    return r["solver"] + (" + restarts" if r["max_restarts"] else "") + (
+        f" + {r['time_budget_us']:g} µs budget" if r.get("time_budget_us") else "")
+
+
+def top_failures(r, count=2):
+    failures = sorted(r.get("failures", {}).items(), key=lambda kv: -kv[1])[:count]
+    return ", ".join(f"{k} {v}" for k, v in failures) or "-"
+
+
+def cmd_robots_table(directory):
+    """robots.json as Markdown tables: one per arm (rows: goal kind x solver x restarts)."""
+    data = load(directory, "robots.json")
+    meta = data["meta"]
+    print(f"Real arms, limits on: {meta['goals_per_arm']} goals per arm, {meta['date']}, cpu: {meta['cpu']}, "
+          f"load avg at start {' '.join(meta.get('loadavg_at_start', '?').split()[:3])}"
+          f"{' (QUICK RUN)' if meta.get('quick') else ''}")
+    print(f"Success: {meta['success']}. Times: CPU time of the solving thread (median / p90 / p99 µs); "
+          f"wall p99 beside it. Restarts: up to {meta['restarts']}, mean used.")
+    print()
+    arms = [a["arm"] for a in data["arms"]]
+    plain = [r for r in data["records"] if not r.get("skipped") and not r.get("time_budget_us")]
+    for title, goal, restarts in (("Full pose, restarts allowed", "full_pose", True),
+                                  ("Full pose, no restarts", "full_pose", False),
+                                  ("Position only, no restarts", "position", False)):
+        cells = [r for r in plain if r["goal"] == goal and bool(r["max_restarts"]) == restarts]
+        print(f"{title}: success · median µs · p99 µs (CPU time)")
+        print()
+        print("| solver | " + " | ".join(arms) + " |")
+        print("|---|" + "---|" * len(arms))
+        for solver in solvers_in(cells):
+            by_arm = {r["arm"]: r for r in cells if r["solver"] == solver}
+            row = []
+            for a in arms:
+                r = by_arm.get(a)
+                row.append(f"{100 * r['success_rate']:.2f} % · {fmt_us(r['cpu_median_us'])} · {fmt_us(r['cpu_p99_us'])}"
+                           + (f" ({r['trials']} goals)" if r["trials"] != meta["goals_per_arm"] else "") if r else "-")
+            print(f"| {solver} | " + " | ".join(row) + " |")
+        print()
+    for arm in data["arms"]:
+        print(f"**{arm['arm']}** ({arm['joints']} joints, {arm['base']} → {arm['tip']}, L = {arm['length_m']:.3f} m; "
+              f"our FK vs KDL's: {arm['fk_vs_kdl_position_m']:.1e} m, {arm['fk_vs_kdl_rotation_rad']:.1e} rad)")
+        print()
+        print("| goal | solver | goals | success | median µs | p90 µs | p99 µs | wall p99 µs | median it. | mean restarts | failures (reason) |")
+        print("|---|---|--:|--:|--:|--:|--:|--:|--:|--:|---|")
+        for r in data["records"]:
+            if r["arm"] != arm["arm"]:
+                continue
+            if r.get("skipped"):
+                print(f"| {r['goal']} | {robots_row_name(r)} | - | - | - | - | - | - | - | - | skipped: {r['note']} |")
+                continue
+            extra = (f"; worst CPU {r['worst_cpu_over_budget']:.2f}× budget (wall {r['worst_elapsed_over_budget']:.2f}×), "
+                     f"over 1.10×: CPU {r['solves_over_1_10_budget_cpu']}, wall {r['solves_over_1_10_budget_wall']}"
+                     if r.get("time_budget_us") else "")
+            it = r["median_iterations"]
+            print(f"| {r['goal']} | {robots_row_name(r)} | {r['trials']} | {100 * r['success_rate']:.2f} % | "
+                  f"{fmt_us(r['cpu_median_us'])} | {fmt_us(r['cpu_p90_us'])} | {fmt_us(r['cpu_p99_us'])} | "
+                  f"{fmt_us(r['p99_us'])} | {it:g} | {r['mean_restarts']:.2f} | {top_failures(r)}{extra} |"
+                  if finite(it) else
+                  f"| {r['goal']} | {robots_row_name(r)} | {r['trials']} | {100 * r['success_rate']:.2f} % | "
+                  f"{fmt_us(r['cpu_median_us'])} | {fmt_us(r['cpu_p90_us'])} | {fmt_us(r['cpu_p99_us'])} | "
+                  f"{fmt_us(r['p99_us'])} | - | {r['mean_restarts']:.2f} | {top_failures(r)}{extra} |")
+        print()
+    t = meta["targets"]
+    print(f"Targets (on every arm): full pose with restarts ≥ {100 * t['full_pose_success']:g} % at median ≤ "
+          f"{t['full_pose_median_us']} µs and p99 ≤ {t['full_pose_p99_us']} µs; position without restarts ≥ "
+          f"{100 * t['position_success']:g} %; elapsed ≤ {t['worst_elapsed_over_budget']}× the budget (CPU time).")
+    print()
+    print("| solver | full-pose success | full-pose median | full-pose p99 | position success | budget |")
+    print("|---|---|---|---|---|---|")
+    word = {True: "met", False: "**missed**", None: "n/a"}
+    for m in data["targets_met"]:
+        print(f"| {m['solver']} | {word[m['full_pose_success']]} | {word[m['full_pose_median_us']]} | "
+              f"{word[m['full_pose_p99_us']]} | {word[m['position_success']]} | {word[m['budget']]} |")
+
+
 # ----------------------------------------------------------------------------------- PNG
 
 # The lecture's three charts (convergence, time per iteration vs joints, iterations vs chain
@@ -142,11 +221,60 @@ CHARTS = ["convergence.png", "ms_per_iteration.png", "iterations.png", "precisio
           "median_us.png", "success.png"]
 
 
+def plot_robots(plt, directory, out_dir):
+    """robots.png: per arm, success (full pose with restarts, position without) and median CPU µs."""
+    from matplotlib import ticker
+    data = load(directory, "robots.json")
+    meta = data["meta"]
+    arms = [a["arm"] for a in data["arms"]]
+    rows = [r for r in data["records"] if not r.get("skipped") and not r.get("time_budget_us")]
+    panels = [("full pose, restarts allowed (KDL: re-run from random starts)", "full_pose", True),
+              ("position only, no restarts", "position", False)]
+    fig, axes = plt.subplots(2, 2, figsize=(12, 8))
+    for col, (title, goal, restarts) in enumerate(panels):
+        cells = [r for r in rows if r["goal"] == goal and bool(r["max_restarts"]) == restarts]
+        solvers = solvers_in(cells)
+        width = 0.8 / max(1, len(solvers))
+        for k, s in enumerate(solvers):
+            by_arm = {r["arm"]: r for r in cells if r["solver"] == s}
+            xs = [i + (k - (len(solvers) - 1) / 2) * width for i in range(len(arms))]
+            axes[0][col].bar(xs, [100 * by_arm[a]["success_rate"] if a in by_arm else 0 for a in arms], width,
+                             color=COLORS.get(s, "#000"), label=s)
+            axes[1][col].bar(xs, [by_arm[a]["cpu_median_us"] if a in by_arm else 0 for a in arms], width,
+                             color=COLORS.get(s, "#000"), label=s)
+        for row, label in ((0, "success (%)"), (1, "median µs (CPU time)")):
+            ax = axes[row][col]
+            ax.set_xticks(range(len(arms)), arms)
+            ax.set_ylabel(label)
+        axes[0][col].set_title(title, fontsize=10)
+        axes[0][col].axhline(99.9, color="#d62728", linestyle="--", linewidth=1)
+        axes[0][col].set_ylim(0, 105)
+        axes[1][col].set_yscale("log")
+        axes[1][col].yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+        axes[1][col].yaxis.set_minor_formatter(ticker.NullFormatter())
+        if goal == "full_pose":
+            axes[1][col].axhline(30, color="#d62728", linestyle="--", linewidth=1)
+        axes[0][col].legend(fontsize=7, ncol=2, loc="lower left")
+    fig.suptitle("Real arms, limits on: every solver and KDL on the same goals (dashed: the targets)")
+    fig.text(0.99, 0.01, f"{meta['goals_per_arm']} goals per arm; scripts/bench {meta['date']}"
+             f"{' (QUICK RUN)' if meta.get('quick') else ''}", ha="right", va="bottom", fontsize=7, color="#666666")
+    fig.tight_layout(rect=(0, 0.03, 1, 0.96))
+    path = os.path.join(out_dir, "robots.png")
+    fig.savefig(path, metadata={"Software": None})
+    plt.close(fig)
+    print(f"wrote {path}")
+
+
 def cmd_plots(directory, out_dir):
     import matplotlib
     matplotlib.use("Agg")  # files only, no display
     import matplotlib.pyplot as plt
 
+    os.makedirs(out_dir, exist_ok=True)
+    if os.path.exists(os.path.join(directory, "robots.json")):
+        plot_robots(plt, directory, out_dir)
+    if not os.path.exists(os.path.join(directory, "core.json")):
+        return
     core = load(directory, "core.json")
     conv = load(directory, "convergence.json")
     prec = load(directory, "precision.json")
@@ -255,12 +383,14 @@ def cmd_plots(directory, out_dir):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", choices=["table", "plots"])
+    ap.add_argument("command", choices=["table", "robots-table", "plots"])
     ap.add_argument("directory", help="where core.json, precision.json and convergence.json are")
     ap.add_argument("--out", help="where to write the PNG files (plots; default: DIRECTORY)")
     args = ap.parse_args()
     if args.command == "table":
         cmd_table(args.directory)
+    elif args.command == "robots-table":
+        cmd_robots_table(args.directory)
     else:
         cmd_plots(args.directory, args.out or args.directory)
     return 0
