@@ -6,9 +6,10 @@
 //   core.json        one record per (solver, joints): success rate, median/p90 time, iterations
 //   precision.json   the lecture's precision case: a target 2 units beyond full reach
 //   convergence.json error after k iterations, k = 1..K, for one fixed target at n = 10
-//   limits.json      joint limits on: two synthetic limited arms (6 and 7 hinges), position-only
-//                    and full-pose goals made by FK of random in-limit poses, started at the
-//                    middle of the limits; success = within tolerance and within limits by our FK;
+//   limits.json      joint limits on: two synthetic limited arms (6 and 7 hinges) and a ball
+//                    arm (cone and twist limits), position-only and full-pose goals made by FK of
+//                    random in-limit poses, started at the middle of the limits (the ball arm also
+//                    on its limits); success = within tolerance and within limits by our FK;
 //                    and the time budget's overrun on a 100-joint chain
 //
 // Method (see docs/benchmarks.md): targets are FK tips of seeded random joint vectors (so they are
@@ -531,6 +532,16 @@ std::vector<LimitedArm> limited_arms() {
   };
 }
 
+Chain build_or_exit(const ikchain::ChainBuilder& b, const char* name) {
+  Chain c;
+  const ikchain::Message m = b.build(c);
+  if (!m.empty()) {
+    std::fprintf(stderr, "limited arm %s: %s\n", name, m.c_str());
+    std::exit(2);
+  }
+  return c;
+}
+
 Chain make_limited_arm(const LimitedArm& arm) {
   ikchain::ChainBuilder b;
   const int n = static_cast<int>(arm.axes.size());
@@ -545,21 +556,99 @@ Chain make_limited_arm(const LimitedArm& arm) {
     b.add_joint(j);
   }
   b.set_tip_offset(glm::dvec3(0, arm.links[n - 1], 0));
-  Chain c;
-  const ikchain::Message m = b.build(c);
-  if (!m.empty()) {
-    std::fprintf(stderr, "limited arm %s: %s\n", arm.name, m.c_str());
-    std::exit(2);
-  }
-  return c;
+  return build_or_exit(b, arm.name);
 }
 
-// One (arm, goal kind, solver) cell: `trials` FK-made goals, each solved from the middle of the
-// limits. Full pose = tip position + tip orientation, the orientation weighted by L^2 (a radian
-// counts like one chain length).
-std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverSpec& spec, int restarts,
+// A human-like arm with ball joints: shoulder ball (cone 45 deg, twist +-30 deg), elbow hinge
+// across the bone ([0, 2.6] rad), wrist ball (cone 50 deg, twist free). Bones along +Y, the twist
+// axis; the same arm as tests/core/limits_test.cpp.
+Chain make_ball_arm() {
+  ikchain::ChainBuilder b;
+  ikchain::JointDesc shoulder;
+  shoulder.type = ikchain::JointType::kBall;
+  shoulder.limits.has_cone_limit = true;
+  shoulder.limits.cone_angle = kPi / 4.0;
+  shoulder.limits.has_twist_limit = true;
+  shoulder.limits.twist_min = -kPi / 6.0;
+  shoulder.limits.twist_max = kPi / 6.0;
+  b.add_joint(shoulder);
+  ikchain::JointDesc elbow;
+  elbow.type = ikchain::JointType::kHinge;
+  elbow.hinge_axis = glm::dvec3(0, 0, 1);
+  elbow.offset_translation = glm::dvec3(0, 0.30, 0);
+  elbow.limits.has_hinge_limit = true;
+  elbow.limits.hinge_min = 0.0;
+  elbow.limits.hinge_max = 2.6;
+  b.add_joint(elbow);
+  ikchain::JointDesc wrist;
+  wrist.type = ikchain::JointType::kBall;
+  wrist.offset_translation = glm::dvec3(0, 0.27, 0);
+  wrist.limits.has_cone_limit = true;
+  wrist.limits.cone_angle = 50.0 * kPi / 180.0;
+  b.add_joint(wrist);
+  b.set_tip_offset(glm::dvec3(0, 0.08, 0));
+  return build_or_exit(b, "ball3");
+}
+
+// Every joint of `chain` at a random in-limit pose: hinges uniform in their range, balls a swing
+// about a random axis across the bone (uniform over the cone's cap) times a twist uniform in its
+// range. `on_boundary`: every limited joint on a limit instead - hinges on a random bound, balls
+// with the swing at the cone angle and the twist on a random bound.
+void limited_pose(const Chain& chain, bool on_boundary, std::mt19937& rng, double* params) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < chain.joint_count(); ++i) {
+    const ikchain::JointLimits& l = chain.limits(i);
+    const int o = chain.dof_offset(i);
+    if (chain.joint_type(i) != ikchain::JointType::kBall) {
+      params[o] = on_boundary ? (u(rng) < 0.5 ? l.hinge_min : l.hinge_max)
+                              : l.hinge_min + (l.hinge_max - l.hinge_min) * u(rng);
+      continue;
+    }
+    const double heading = 2.0 * kPi * u(rng);
+    const glm::dvec3 swing_axis(std::cos(heading), 0.0, std::sin(heading));  // across the bone (+Y)
+    const double cone = l.has_cone_limit ? l.cone_angle : kPi;
+    const double swing = on_boundary ? cone : cone * std::sqrt(u(rng));
+    const double lo = l.has_twist_limit ? l.twist_min : -kPi, hi = l.has_twist_limit ? l.twist_max : kPi;
+    const double twist = on_boundary && l.has_twist_limit ? (u(rng) < 0.5 ? lo : hi) : lo + (hi - lo) * u(rng);
+    const glm::dvec3 r = ikchain::so3::log(glm::angleAxis(swing, swing_axis) * glm::angleAxis(twist, l.twist_axis));
+    params[o] = r.x;
+    params[o + 1] = r.y;
+    params[o + 2] = r.z;
+  }
+}
+
+// One arm of the limits stage: the chain, and how the goals (FK of random in-limit poses) and
+// every solve's start pose are drawn.
+struct LimitsCase {
+  std::string name;
+  Chain chain;
+  std::vector<double> middle;  // the start pose, unless start_on_boundary
+  bool start_on_boundary = false;
+};
+
+std::vector<LimitsCase> limits_cases() {
+  std::vector<LimitsCase> cases;
+  for (const LimitedArm& arm : limited_arms()) {
+    LimitsCase c{arm.name, make_limited_arm(arm), {}, false};
+    for (size_t i = 0; i < arm.lower.size(); ++i) c.middle.push_back(0.5 * (arm.lower[i] + arm.upper[i]));
+    cases.push_back(c);
+  }
+  // The ball arm from the middle of its limits (balls at rest, elbow half bent) and from random
+  // poses with every joint on a limit (the start that stalled projection-only steps).
+  const Chain ball = make_ball_arm();
+  std::vector<double> middle(ball.dof_count(), 0.0);
+  middle[3] = 1.3;
+  cases.push_back({"ball3", ball, middle, false});
+  cases.push_back({"ball3_edge", ball, middle, true});
+  return cases;
+}
+
+// One (arm, goal kind, solver) cell: `trials` FK-made goals, each solved from the case's start.
+// Full pose = tip position + tip orientation, the orientation weighted by L^2 (a radian counts
+// like one chain length).
+std::string run_limits_cell(const LimitsCase& arm, bool full_pose, const SolverSpec& spec, int restarts,
                             int trials, std::string& table) {
-  const Chain chain = make_limited_arm(arm);
+  const Chain& chain = arm.chain;
   const int n = chain.dof_count();
   const double length = chain.total_length();
   ikchain::SolverOptions o;
@@ -569,18 +658,21 @@ std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverS
   o.warm_start = true;
   o.max_restarts = restarts;
   ikchain::Workspace ws(chain, 2), fk(chain, 1);
-  Eigen::VectorXd middle(n), truth(n), params(n);
-  for (int i = 0; i < n; ++i) middle[i] = 0.5 * (arm.lower[i] + arm.upper[i]);
+  Eigen::VectorXd truth(n), params(n);
   std::mt19937 rng(77u + (full_pose ? 1000u : 0u) + static_cast<unsigned>(n));
+  std::mt19937 start_rng(5u + (full_pose ? 1000u : 0u));
   std::vector<double> us, iterations, restart_counts;
   std::map<std::string, int> reasons;
   int successes = 0;
   for (int t = 0; t < trials; ++t) {
-    for (int i = 0; i < n; ++i) truth[i] = std::uniform_real_distribution<double>(arm.lower[i], arm.upper[i])(rng);
+    limited_pose(chain, false, rng, truth.data());
     ikchain::forward_kinematics(chain, truth.data(), fk);
     ikchain::Goal goals[2] = {ikchain::Goal::position(fk.tip),
                               ikchain::Goal::orientation(ikchain::effector_orientation(chain, fk, 0), 0, length * length)};
-    params = middle;
+    if (arm.start_on_boundary)
+      limited_pose(chain, true, start_rng, params.data());
+    else
+      params = Eigen::Map<const Eigen::VectorXd>(arm.middle.data(), n);
     const Clock::time_point t0 = Clock::now();
     const ikchain::SolveResult r =
         ikchain::solve(spec.kind, chain, ikchain::Span<const ikchain::Goal>(goals, full_pose ? 2 : 1), o, ws, params);
@@ -602,12 +694,13 @@ std::string run_limits_cell(const LimitedArm& arm, bool full_pose, const SolverS
   const std::string name = std::string(spec.name) + (restarts > 0 ? "+restarts" : "");
   char line[256];
   std::snprintf(line, sizeof(line),
-                "  %-5s %-9s %-22s %7.2f %%  median %8.1f us  p99 %9.1f us  median it %5.0f  p99 restarts %3.0f\n",
-                arm.name, full_pose ? "full_pose" : "position", name.c_str(), 100.0 * rate, quantile(us, 0.5),
-                quantile(us, 0.99), quantile(iterations, 0.5), quantile(restart_counts, 0.99));
+                "  %-10s %-9s %-22s %7.2f %%  median %8.1f us  p99 %9.1f us  median it %5.0f  p99 restarts %3.0f\n",
+                arm.name.c_str(), full_pose ? "full_pose" : "position", name.c_str(), 100.0 * rate,
+                quantile(us, 0.5), quantile(us, 0.99), quantile(iterations, 0.5), quantile(restart_counts, 0.99));
   table += line;
   std::string s = "{";
   s += "\"arm\": " + json_string(arm.name);
+  s += ", \"start\": " + json_string(arm.start_on_boundary ? "on_limits" : "middle");
   s += ", \"goal\": " + json_string(full_pose ? "full_pose" : "position");
   s += ", \"solver\": " + json_string(spec.name);
   s += ", \"max_restarts\": " + std::to_string(restarts);
@@ -675,7 +768,7 @@ constexpr int kBenchRestarts = 20;
 bool write_limits_json(const std::string& out_dir, bool quick) {
   std::string records, table = "limits on (success by our FK, within limits):\n";
   const int trials = quick ? 100 : 2000;
-  for (const LimitedArm& arm : limited_arms())
+  for (const LimitsCase& arm : limits_cases())
     for (bool full_pose : {false, true})
       for (const SolverSpec& spec : solver_specs()) {
         if (spec.is_kdl || spec.kind == SolverKind::kTwoBone) continue;

@@ -281,6 +281,60 @@ void project_to_limits(const Chain& chain, double* params) {
   for (int i = 0; i < chain.joint_count(); ++i) project_joint_to_limits(chain, i, params);
 }
 
+int ball_blocked(const Chain& chain, int joint, const double* params, const double* direction,
+                 glm::dvec3 normals[2]) {
+  if (chain.joint_type(joint) != JointType::kBall || !chain.has_limits(joint)) return 0;
+  const JointLimits& l = chain.limits(joint);
+  const glm::dvec3 d(direction[0], direction[1], direction[2]);
+  const double tolerance = 1e-9 * glm::length(d);
+  if (!(tolerance > 0.0)) return 0;
+  constexpr double kOnBound = 1e-10;  // rad; the projection's exp/log round trip leaves ~1e-15
+  const int o = chain.dof_offset(joint);
+  const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
+  const glm::dquat q = so3::exp(r);
+  const glm::dvec3& a = l.twist_axis;
+  const glm::dvec3 b = q * a;
+  const glm::dvec3 axb = glm::cross(a, b);
+  const double sin_swing = glm::length(axb), cos_swing = glm::dot(a, b);
+  // Outward normals in angular-velocity space. The swing normal is undefined at zero swing (a zero
+  // cone: the projection holds it) and the twist at a half-turn swing (twist itself is undefined).
+  // d(angle)/d(r) = J_l(r)^T g for an angular-velocity gradient g, since w = J_l(r) dr.
+  glm::dvec3 outward[2];
+  int count = 0;
+  if (l.has_cone_limit && sin_swing > 1e-9 && std::atan2(sin_swing, cos_swing) >= l.cone_angle - kOnBound)
+    outward[count++] = glm::normalize(glm::transpose(so3::left_jacobian(r)) * (axb / sin_swing));
+  if (l.has_twist_limit && 1.0 + cos_swing > 1e-9) {
+    glm::dquat swing;
+    double twist = 0.0;
+    so3::swing_twist(q, a, swing, twist);
+    const bool at_max = twist >= l.twist_max - kOnBound, at_min = twist <= l.twist_min + kOnBound;
+    if (at_max || at_min) {
+      const glm::dvec3 n = glm::normalize(glm::transpose(so3::left_jacobian(r)) * (a + b));
+      // On both bounds (twist_min == twist_max) every twist is blocked: the normal the step pushes along.
+      outward[count++] = at_max && (!at_min || glm::dot(n, d) >= 0.0) ? n : -n;
+    }
+  }
+  if (count == 0) return 0;
+  bool pushes_out = false;
+  glm::dvec3 kept[2];
+  int kept_count = 0;
+  for (int k = 0; k < count; ++k) {
+    const glm::dvec3& n = outward[k];
+    const double along = glm::dot(n, d);
+    if (along > tolerance) pushes_out = true;
+    if (along > -tolerance) kept[kept_count++] = n;
+  }
+  if (!pushes_out) return 0;
+  int out = 0;
+  for (int k = 0; k < kept_count; ++k) {  // Gram-Schmidt
+    glm::dvec3 n = kept[k];
+    for (int m = 0; m < out; ++m) n -= glm::dot(n, normals[m]) * normals[m];
+    const double len = glm::length(n);
+    if (len > 1e-9) normals[out++] = n / len;
+  }
+  return out;
+}
+
 bool within_limits(const Chain& chain, const double* params, double slack) {
   const int n = chain.joint_count();
   for (int i = 0; i < n; ++i) {

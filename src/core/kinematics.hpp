@@ -84,7 +84,7 @@ void project_to_limits(const Chain& chain, double* params);
 void project_joint_to_limits(const Chain& chain, int joint, double* params);
 // True when joint `joint` is a limited hinge (or prismatic joint) resting on a bound (within 1e-12 rad) and a change of
 // its angle by `direction` (its sign is what counts) would push it out: the active set of the
-// Jacobian solvers' limit-aware steps and of BFGS's projected steps.
+// Jacobian solvers' limit-aware steps and of BFGS's projected steps (ball joints: ball_blocked).
 inline bool hinge_blocked(const Chain& chain, int joint, const double* params, double direction) {
   if (chain.joint_type(joint) == JointType::kBall) return false;
   const JointLimits& l = chain.limits(joint);
@@ -92,6 +92,33 @@ inline bool hinge_blocked(const Chain& chain, int joint, const double* params, d
   const double angle = params[chain.dof_offset(joint)];
   constexpr double kOnBound = 1e-12;
   return (angle <= l.hinge_min + kOnBound && direction < 0.0) || (angle >= l.hinge_max - kOnBound && direction > 0.0);
+}
+// The same active set for a ball joint's cone and twist limits. A limit the joint rests on (swing
+// angle at cone_angle, twist angle at a bound, within 1e-10 rad) blocks a step of the joint's
+// rotation vector whose component along the limit's outward normal is positive. The normals are
+// exact gradients of the swing and twist angles mapped into rotation-vector space through the left
+// Jacobian: with b = q a (a = twist_axis), d swing = ((a x b) / |a x b|) . w and
+// d twist = ((a + b) / (1 + a . b)) . w for a local angular velocity w = J_l(r) dr.
+// `direction` is the joint's 3 DOF entries of the step. When it pushes out of at least one limit,
+// writes an orthonormal basis of the normals to remove from the joint's step - the blocked ones
+// and any it is already tangent to (within 1e-9 relative: the ones an earlier pass removed, so that
+// removing the set again is idempotent) - into `normals`, and returns their count (1 or 2);
+// returns 0 when nothing blocks. A step freed of these components slides along the boundary.
+int ball_blocked(const Chain& chain, int joint, const double* params, const double* direction,
+                 glm::dvec3 normals[2]);
+// Removes the component along unit `normal` (rotation-vector space) from the 3 DOF columns
+// o..o+2 of the first `rows` rows of `jacobian`, J <- J (I - n n^T): a minimum-norm or damped step
+// solved over the result has no component along n. For a hinge the same is zeroing its column.
+inline void remove_ball_direction(Eigen::MatrixXd& jacobian, int rows, int o, const glm::dvec3& normal) {
+  double* c0 = jacobian.col(o).data();
+  double* c1 = jacobian.col(o + 1).data();
+  double* c2 = jacobian.col(o + 2).data();
+  for (int r = 0; r < rows; ++r) {
+    const double v = c0[r] * normal.x + c1[r] * normal.y + c2[r] * normal.z;
+    c0[r] -= v * normal.x;
+    c1[r] -= v * normal.y;
+    c2[r] -= v * normal.z;
+  }
 }
 // True when every joint respects its limits within `slack` (rad).
 bool within_limits(const Chain& chain, const double* params, double slack = 1e-9);

@@ -39,7 +39,8 @@
 //
 // Limits (a bounded variant of projection, documented choice). Hinge DOFs sitting on a bound with
 // the gradient pushing outward are frozen (removed from the direction, and from J for the
-// Gauss-Newton step) -- the active-set idea of projected quasi-Newton methods (Bertsekas 1982,
+// Gauss-Newton step), and so is the outward normal direction of a ball joint on its cone or twist
+// boundary (ball_blocked; the joint then moves along the boundary) -- the active-set idea of projected quasi-Newton methods (Bertsekas 1982,
 // "Projected Newton methods for optimization problems with simple constraints"). Every trial point
 // is projected with project_to_limits(); on a projected (kinked) path the curvature condition is
 // waived and only sufficient decrease measured along the projected displacement is asked for
@@ -125,24 +126,39 @@ class Bfgs {
     return true;
   }
 
-  // Hinge DOF `o` of limited joint `i` sits on a bound and descent would push it out.
-  bool frozen(int joint, const Eigen::VectorXd& g) const {
-    return hinge_blocked(chain_, joint, x_.data(), -g[chain_.dof_offset(joint)]);  // descent: -g
+  // Joint `joint` sits on a limit and descent (-g) would push it out: for a hinge returns 1 (its
+  // DOF is frozen), for a ball the number of normals written to `normals` (their directions are
+  // frozen); 0 when free.
+  int frozen(int joint, const Eigen::VectorXd& g, glm::dvec3 normals[2]) const {
+    const int o = chain_.dof_offset(joint);
+    if (chain_.joint_type(joint) != JointType::kBall) return hinge_blocked(chain_, joint, x_.data(), -g[o]) ? 1 : 0;
+    const double descent[3] = {-g[o], -g[o + 1], -g[o + 2]};
+    return ball_blocked(chain_, joint, x_.data(), descent, normals);
   }
 
-  // Zeroes the frozen entries of `v` (given grad f at x in ws.gradient).
+  // Removes the frozen entries and directions from `v` (given grad f at x in ws.gradient).
   void zero_frozen(Eigen::Ref<Eigen::VectorXd> v) const {
     if (!chain_.any_limits()) return;
-    for (int i = 0; i < chain_.joint_count(); ++i)
-      if (frozen(i, ws_.gradient)) v[chain_.dof_offset(i)] = 0.0;
+    glm::dvec3 normals[2];
+    for (int i = 0; i < chain_.joint_count(); ++i) {
+      const int count = frozen(i, ws_.gradient, normals);
+      const int o = chain_.dof_offset(i);
+      if (count > 0 && chain_.joint_type(i) != JointType::kBall) v[o] = 0.0;
+      for (int k = 0; k < count && chain_.joint_type(i) == JointType::kBall; ++k) {
+        const double along = v[o] * normals[k].x + v[o + 1] * normals[k].y + v[o + 2] * normals[k].z;
+        for (int d = 0; d < 3; ++d) v[o + d] -= along * normals[k][d];
+      }
+    }
   }
 
   // Identifies the frozen set (0 = none): a change of active set restarts the BFGS cycle.
   uint64_t frozen_signature() const {
     if (!chain_.any_limits()) return 0;
     uint64_t sig = 0;
+    glm::dvec3 normals[2];
     for (int i = 0; i < chain_.joint_count(); ++i)
-      if (frozen(i, ws_.gradient)) sig = sig * 1000003u + static_cast<uint64_t>(i + 1);
+      if (const int count = frozen(i, ws_.gradient, normals))
+        sig = sig * 1000003u + static_cast<uint64_t>(3 * i + count);
     return sig;
   }
 
@@ -166,8 +182,14 @@ class Bfgs {
       jacobian_current_ = true;
     }
     if (!chain_.any_limits()) return;
-    for (int i = 0; i < chain_.joint_count(); ++i)
-      if (frozen(i, ws_.gradient)) ws_.jacobian.col(chain_.dof_offset(i)).head(rows_).setZero();
+    glm::dvec3 normals[2];
+    for (int i = 0; i < chain_.joint_count(); ++i) {
+      const int count = frozen(i, ws_.gradient, normals);
+      const int o = chain_.dof_offset(i);
+      if (count > 0 && chain_.joint_type(i) != JointType::kBall) ws_.jacobian.col(o).head(rows_).setZero();
+      for (int k = 0; k < count && chain_.joint_type(i) == JointType::kBall; ++k)
+        remove_ball_direction(ws_.jacobian, rows_, o, normals[k]);
+    }
   }
 
   // w = (J J^T + mu I)^-1 b for J = ws.jacobian's rows, b = ws.goal_vec (solved in place) by a

@@ -272,6 +272,8 @@ class SinglePositionModel {
   // Active set (see limit_aware_step): DOF `dof` leaves J (its column is zeroed) until the next
   // linearize(); refactor() then rebuilds J J^T from the remaining columns.
   void freeze(int dof) { ws_.jacobian.col(dof).head(3).setZero(); }
+  // The same for one direction of a ball joint's DOFs o..o+2 (a cone or twist limit's normal).
+  void freeze_direction(int o, const glm::dvec3& normal) { remove_ball_direction(ws_.jacobian, 3, o, normal); }
   void refactor() {
     const auto J = ws_.jacobian.topLeftCorner(3, active_dofs_);
     gram_.noalias() = J * J.transpose();
@@ -462,6 +464,7 @@ class GoalModel {
   }
   // Active set (see limit_aware_step): as SinglePositionModel's.
   void freeze(int dof) { ws_.jacobian.col(dof).head(m_).setZero(); }
+  void freeze_direction(int o, const glm::dvec3& normal) { remove_ball_direction(ws_.jacobian, m_, o, normal); }
   // The Gram matrix's eigen-decomposition and the projected residual of the current J.
   void refactor() {
     auto J = ws_.jacobian.topRows(m_);
@@ -644,19 +647,22 @@ void keep_best(const Chain& chain, const Model& model, const Workspace& ws, doub
 }
 
 // Limit-aware steps (an active set; the one mechanism DLS and the pseudo-inverse share, with the
-// predicate BFGS freezes by, hinge_blocked() in kinematics.hpp). Projecting a trial pose onto the
-// limits clips every component that pushes a joint resting on a limit further out: the step that
-// is left is not the one the linear model chose (its predicted decrease is wrong), DLS raises the
-// damping on the resulting rejections and the pseudo-inverse halves, until both stall on the
-// limit. Instead, a hinge DOF on a bound whose step pushes outward is frozen - its column leaves
-// J - and the step is solved again over the remaining DOFs, which then do the frozen joint's
-// share; repeated while the new step blocks further DOFs (at most kMaxFreezePasses). Components
-// that cross a bound from inside are still clipped by the projection, and that joint then rests
+// predicates BFGS freezes by, hinge_blocked() and ball_blocked() in kinematics.hpp). Projecting a
+// trial pose onto the limits clips every component that pushes a joint resting on a limit further
+// out: the step that is left is not the one the linear model chose (its predicted decrease is
+// wrong), DLS raises the damping on the resulting rejections and the pseudo-inverse halves, until
+// both stall on the limit. Instead, a hinge DOF on a bound whose step pushes outward is frozen -
+// its column leaves J - and a ball joint on its cone or twist boundary whose step pushes outward
+// loses the outward normal direction from its three columns (J <- J (I - n n^T), so the re-solved
+// step slides along the boundary's tangent). The step is solved again over what is left, and the
+// other DOFs do the blocked share; repeated while the new step blocks more (at most
+// kMaxFreezePasses). Components that cross a bound from inside, and the second-order drift of a
+// tangent step off the curved cone, are still clipped by the projection, and that joint then rests
 // on its bound at the next linearisation. This is the active-set idea of projected Newton methods
 // (Bertsekas 1982, "Projected Newton methods for optimization problems with simple constraints")
-// applied to the Gauss-Newton / LM step. Ball joints' cone and twist limits stay projected.
-// `step_fn(step)` computes the model's step into `step` and returns what the solver needs of it
-// (DLS: the predicted decrease). The frozen columns stay out of J until the next linearize().
+// applied to the Gauss-Newton / LM step. `step_fn(step)` computes the model's step into `step` and
+// returns what the solver needs of it (DLS: the predicted decrease). The frozen columns and
+// directions stay out of J until the next linearize().
 constexpr int kMaxFreezePasses = 4;
 template <class Model, class StepFn>
 double limit_aware_step(const Chain& chain, Model& model, const double* params, double* step, StepFn&& step_fn) {
@@ -667,7 +673,12 @@ double limit_aware_step(const Chain& chain, Model& model, const double* params, 
     bool froze = false;
     for (int i = 0; i < chain.joint_count() && chain.dof_offset(i) < active; ++i) {
       const int o = chain.dof_offset(i);
-      if (step[o] != 0.0 && hinge_blocked(chain, i, params, step[o])) {
+      if (chain.joint_type(i) == JointType::kBall) {
+        glm::dvec3 normals[2];
+        const int count = ball_blocked(chain, i, params, step + o, normals);
+        for (int k = 0; k < count; ++k) model.freeze_direction(o, normals[k]);
+        froze = froze || count > 0;
+      } else if (step[o] != 0.0 && hinge_blocked(chain, i, params, step[o])) {
         model.freeze(o);
         froze = true;
       }
