@@ -291,28 +291,43 @@ int ball_blocked(const Chain& chain, int joint, const double* params, const doub
   constexpr double kOnBound = 1e-10;  // rad; the projection's exp/log round trip leaves ~1e-15
   const int o = chain.dof_offset(joint);
   const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
+  // The common case first, without trigonometry: neither the swing angle nor |twist| exceeds the
+  // rotation angle, itself at most |r| (cos(angle / 2) = cos(swing / 2) cos(twist / 2)).
+  const double angle = glm::length(r);
+  if ((!l.has_cone_limit || angle < l.cone_angle - kOnBound) &&
+      (!l.has_twist_limit || (angle < l.twist_max - kOnBound && -angle > l.twist_min + kOnBound)))
+    return 0;
   const glm::dquat q = so3::exp(r);
   const glm::dvec3& a = l.twist_axis;
-  const glm::dvec3 b = q * a;
-  const glm::dvec3 axb = glm::cross(a, b);
-  const double sin_swing = glm::length(axb), cos_swing = glm::dot(a, b);
-  // Outward normals in angular-velocity space. The swing normal is undefined at zero swing (a zero
-  // cone: the projection holds it) and the twist at a half-turn swing (twist itself is undefined).
-  // d(angle)/d(r) = J_l(r)^T g for an angular-velocity gradient g, since w = J_l(r) dr.
-  glm::dvec3 outward[2];
-  int count = 0;
-  if (l.has_cone_limit && sin_swing > 1e-9 && std::atan2(sin_swing, cos_swing) >= l.cone_angle - kOnBound)
-    outward[count++] = glm::normalize(glm::transpose(so3::left_jacobian(r)) * (axb / sin_swing));
-  if (l.has_twist_limit && 1.0 + cos_swing > 1e-9) {
+  // Which bounds it rests on, from the quaternion: the swing is the rotation left after the twist
+  // (w, (v . a) a) / n, so sin^2(swing / 2) = 1 - n^2; the twist angle as so3::swing_twist's.
+  const double along_axis = q.x * a.x + q.y * a.y + q.z * a.z;
+  const double swing_limit = 0.5 * (l.cone_angle - kOnBound);
+  const bool on_cone = l.has_cone_limit && swing_limit > 0.0 &&
+                       1.0 - q.w * q.w - along_axis * along_axis >= std::sin(swing_limit) * std::sin(swing_limit);
+  bool at_max = false, at_min = false;
+  if (l.has_twist_limit) {
     glm::dquat swing;
     double twist = 0.0;
     so3::swing_twist(q, a, swing, twist);
-    const bool at_max = twist >= l.twist_max - kOnBound, at_min = twist <= l.twist_min + kOnBound;
-    if (at_max || at_min) {
-      const glm::dvec3 n = glm::normalize(glm::transpose(so3::left_jacobian(r)) * (a + b));
-      // On both bounds (twist_min == twist_max) every twist is blocked: the normal the step pushes along.
-      outward[count++] = at_max && (!at_min || glm::dot(n, d) >= 0.0) ? n : -n;
-    }
+    at_max = twist >= l.twist_max - kOnBound;
+    at_min = twist <= l.twist_min + kOnBound;
+  }
+  if (!on_cone && !at_max && !at_min) return 0;
+  // Outward normals in angular-velocity space, then d(angle)/d(r) = J_l(r)^T g, since
+  // w = J_l(r) dr. The swing normal is undefined at zero swing (the projection holds a zero cone)
+  // and the twist's at a half-turn swing (the twist itself is undefined there).
+  const glm::dmat3 jl_transposed = glm::transpose(so3::left_jacobian(r));
+  const glm::dvec3 b = q * a;
+  const glm::dvec3 axb = glm::cross(a, b);
+  const double sin_swing = glm::length(axb), cos_swing = glm::dot(a, b);
+  glm::dvec3 outward[2];
+  int count = 0;
+  if (on_cone && sin_swing > 1e-9) outward[count++] = glm::normalize(jl_transposed * (axb / sin_swing));
+  if ((at_max || at_min) && 1.0 + cos_swing > 1e-9) {
+    const glm::dvec3 n = glm::normalize(jl_transposed * (a + b));
+    // On both bounds (twist_min == twist_max) every twist is blocked: the normal the step pushes along.
+    outward[count++] = at_max && (!at_min || glm::dot(n, d) >= 0.0) ? n : -n;
   }
   if (count == 0) return 0;
   bool pushes_out = false;

@@ -136,9 +136,22 @@ class Bfgs {
     return ball_blocked(chain_, joint, x_.data(), descent, normals);
   }
 
+  // Whether any joint is frozen at x (ball joints' test is not free, and most poses have none):
+  // worked out once per x and grad f; moved_x() forgets it.
+  bool none_frozen() const {
+    if (none_frozen_ < 0) {
+      glm::dvec3 normals[2];
+      none_frozen_ = 1;
+      for (int i = 0; i < chain_.joint_count() && none_frozen_; ++i)
+        if (frozen(i, ws_.gradient, normals) > 0) none_frozen_ = 0;
+    }
+    return none_frozen_ == 1;
+  }
+  void moved_x() { none_frozen_ = -1; }
+
   // Removes the frozen entries and directions from `v` (given grad f at x in ws.gradient).
   void zero_frozen(Eigen::Ref<Eigen::VectorXd> v) const {
-    if (!chain_.any_limits()) return;
+    if (!chain_.any_limits() || none_frozen()) return;
     glm::dvec3 normals[2];
     for (int i = 0; i < chain_.joint_count(); ++i) {
       const int count = frozen(i, ws_.gradient, normals);
@@ -153,7 +166,7 @@ class Bfgs {
 
   // Identifies the frozen set (0 = none): a change of active set restarts the BFGS cycle.
   uint64_t frozen_signature() const {
-    if (!chain_.any_limits()) return 0;
+    if (!chain_.any_limits() || none_frozen()) return 0;
     uint64_t sig = 0;
     glm::dvec3 normals[2];
     for (int i = 0; i < chain_.joint_count(); ++i)
@@ -181,7 +194,7 @@ class Bfgs {
       evaluate(x_.data(), ws_.gradient_trial);  // same gradient as ws.gradient; only J is wanted
       jacobian_current_ = true;
     }
-    if (!chain_.any_limits()) return;
+    if (!chain_.any_limits() || none_frozen()) return;
     glm::dvec3 normals[2];
     for (int i = 0; i < chain_.joint_count(); ++i) {
       const int count = frozen(i, ws_.gradient, normals);
@@ -301,6 +314,7 @@ class Bfgs {
   bool jacobian_current_ = false;  // ws.jacobian / ws.residual are of x or of the kept point
   bool fresh_ = true;              // H must be (re)initialised: next direction is Gauss-Newton
   uint64_t active_set_ = 0;        // frozen_signature() of the current BFGS cycle
+  mutable int none_frozen_ = -1;   // none_frozen() at x: 1, 0, or -1 = not worked out yet
 };
 
 // N&W Alg. 3.5: bracket an interval containing strong-Wolfe points, starting from alpha_init.
@@ -398,12 +412,14 @@ void Bfgs::accept(bool allow_update) {
   apply_step(chain_, ws_.step.data(), 0.0, x_.data());  // wraps ball rotation vectors to <= pi
   err_ = kept_.err;
   ws_.gradient = ws_.dof_vec_a;
+  moved_x();
   bool wrapped = false;
   for (int i = 0; i < n_; ++i)
     if (x_[i] != ws_.params_best[i]) wrapped = true;
   if (wrapped) {
     // The chart changed (and with it the gradient's coordinates): start a new BFGS cycle there.
     err_ = evaluate(x_.data(), ws_.gradient);
+    moved_x();
     jacobian_current_ = true;
     fresh_ = true;
     return;
