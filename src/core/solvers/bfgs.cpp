@@ -40,8 +40,9 @@
 // Limits (a bounded variant of projection, documented choice). Hinge DOFs sitting on a bound with
 // the gradient pushing outward are frozen (removed from the direction, and from J for the
 // Gauss-Newton step), and so is the outward normal direction of a ball joint on its cone or twist
-// boundary (ball_blocked; the joint then moves along the boundary) -- the active-set idea of projected quasi-Newton methods (Bertsekas 1982,
-// "Projected Newton methods for optimization problems with simple constraints"). Every trial point
+// boundary (ball_blocked; the joint then moves along the boundary) -- the active-set idea of
+// projected quasi-Newton methods (Bertsekas 1982, "Projected Newton methods for optimization
+// problems with simple constraints"). Every trial point
 // is projected with project_to_limits(); on a projected (kinked) path the curvature condition is
 // waived and only sufficient decrease measured along the projected displacement is asked for
 // (Bertsekas' Armijo rule along the projection arc). When an accepted step was projected, the
