@@ -8,7 +8,7 @@
 //    a build that fails says why;
 //  - no NaN/inf in any output (result fields, params);
 //  - invalid input: params bit-identical to the input and a non-empty message;
-//  - iterations <= max_iterations;
+//  - iterations <= max_iterations per run (the first and each restart), restarts <= max_restarts;
 //  - solving the same input again on the same workspace gives the same verdict and pose, bit for bit;
 //  - the returned pose respects the joint limits;
 //  - "converged" => every goal within tolerance by an independent FK (plain GLM, none of the core's
@@ -415,7 +415,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   // A usable result: the input was valid, so the chain built and everything below is defined.
   REQUIRE(chain.valid() && o.validate().empty() && goal_count > 0, "usable result for invalid input");
-  REQUIRE(r.iterations <= o.max_iterations, "iterations > max_iterations", r.iterations, o.max_iterations);
+  // max_iterations bounds each run; the result counts every run (options.hpp, restarts).
+  REQUIRE(r.restarts >= 0 && r.restarts <= o.max_restarts, "restarts outside 0..max_restarts", r.restarts,
+          o.max_restarts);
+  REQUIRE(r.iterations <= o.max_iterations * (1 + r.restarts), "iterations > max_iterations per run", r.iterations,
+          o.max_iterations);
   REQUIRE(params.allFinite(), "non-finite params");
   REQUIRE(within_limits(chain, params.data(), 1e-6), "returned pose violates the limits");
 
