@@ -7,7 +7,8 @@
 //                 aim_direction, angle in [0, pi]                           (rad)
 //   kAimAt:       the same with aim_direction = normalize(target_position - effector position),
 //                 recomputed from the current pose (a turret or a head looking at a point)  (rad);
-//                 0 when the effector sits on the point (no direction to aim along)
+//                 0 when the effector sits on the point (no direction to aim along;
+//                 kAimAtOnPoint in kinematics.hpp says how near that is)
 // The objective is 0.5 * sum_g weight_g * |e_g|^2.
 #pragma once
 #include <array>

@@ -61,7 +61,7 @@ bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal,
                       double& distance) {
   const glm::dvec3 d = goal.target_position - effector_position(chain, ws, goal.effector);
   distance = glm::length(d);
-  if (!(distance > 1e-12 * chain.total_length())) return false;
+  if (!(distance > kAimAtOnPoint * (chain.total_length() + glm::length(goal.target_position)))) return false;
   direction = d / distance;
   return true;
 }

@@ -33,7 +33,11 @@ glm::dvec3 effector_position(const Chain& chain, const Workspace& ws, int effect
 // The frame of the bone ending at the effector; for the tip, the tip (tool) frame (chain.hpp).
 glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int effector);
 // kAimAt: the unit direction from the goal's effector to its point and the distance; false when
-// the effector sits on the point (within 1e-12 of the chain's length). Valid after forward_kinematics().
+// the effector sits on the point (no direction to aim along: the goal is met), nearer to it than
+// kAimAtOnPoint * (the chain's length + the point's distance from the base). Nearer, the direction
+// would be mostly rounding: the positions it is taken from carry a few ulps of their magnitude,
+// and the angle's error is that over the distance. Valid after forward_kinematics().
+constexpr double kAimAtOnPoint = 1e-6;
 bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
                       double& distance);
 

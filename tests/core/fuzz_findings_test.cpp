@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/kinematics.hpp"
@@ -317,6 +318,131 @@ TEST(FuzzFindings, BfgsLineSearchStepsBounded) {
   EXPECT_TRUE(o.validate().empty());
   o.bfgs_max_line_search_steps = 0;
   EXPECT_TRUE(contains(o.validate(), "bfgs_max_line_search_steps"));
+}
+
+// The aim-at angle of a one-joint chain's tip, computed here from the definition (goal.hpp) in
+// plain GLM, independently of the core's FK: joint rotation `q`, then the tip at q * tip_offset.
+double aim_at_angle_one_joint(const glm::dquat& q, const glm::dvec3& tip_offset, double chain_length,
+                              const Goal& g) {
+  const glm::dvec3 to_point = g.target_position - q * tip_offset;
+  if (!(glm::length(to_point) > kAimAtOnPoint * (chain_length + glm::length(g.target_position)))) return 0.0;
+  const glm::dvec3 axis = glm::normalize(q * g.aim_axis);
+  return std::atan2(glm::length(glm::cross(axis, to_point)), glm::dot(axis, to_point));
+}
+
+// The two reproducers: one joint at the base origin, an aim-at goal on the tip whose point lies on
+// the sphere (ball) or circle (hinge) the tip moves on. Descent toward the point runs into the
+// jump of the aim direction there; BFGS stopped about 1e-11 from the point, where the direction
+// and so the angle were mostly rounding: the reported final_error and an independent FK of the
+// returned pose disagreed by ~3.5e-6 rad.
+struct AimAtReproducer {
+  Chain chain;
+  glm::dvec3 tip_offset;
+  Goal goal;
+  Eigen::VectorXd start;
+  SolverOptions options;
+  glm::dquat rotation(const Eigen::VectorXd& p) const {  // the joint's rotation for params p
+    if (chain.joint_type(0) == JointType::kHinge) return glm::angleAxis(p[0], glm::dvec3(0, 0, 1));
+    const glm::dvec3 r(p[0], p[1], p[2]);
+    return glm::length(r) > 0.0 ? glm::angleAxis(glm::length(r), r / glm::length(r)) : glm::dquat(1, 0, 0, 0);
+  }
+};
+
+AimAtReproducer aim_at_reproducer(JointType type) {
+  AimAtReproducer r;
+  JointDesc j;
+  j.type = type;
+  j.hinge_axis = glm::dvec3(0, 0, 1);
+  if (type == JointType::kBall) {  // BFGS alone
+    r.tip_offset = glm::dvec3(0, 1, 0);
+    r.goal = Goal::aim_at(glm::dvec3(-0.69588683150423758, 0.26852934487031521, 0.66605818715973486),
+                          glm::dvec3(0.0901971514738511, 0.090196078431375781, -0.99999796549490583));
+    r.start = Eigen::Vector3d(-2.1453094482421875, 0, 0);
+    r.options.max_iterations = 276;
+    r.options.position_tolerance = 1e-3;
+    r.options.stall_tolerance = 1e-224;
+  } else {  // BFGS with restarts
+    r.tip_offset = glm::dvec3(0.65096918587005348, 0, 0.65098039215686265);
+    r.goal = Goal::aim_at(glm::dvec3(0.36451035100981977, 0.53934505185365167, 0.65098039215686265),
+                          glm::dvec3(0.32549022412767603, 0.79607843137254908, 0), 1);
+    r.start = Eigen::VectorXd::Constant(1, 2.7862745098039152);
+    r.options.max_iterations = 243;
+    r.options.orientation_tolerance = 1e-158;
+    r.options.pinv_max_halvings = 28;
+    r.options.pinv_singular_threshold = 1e-158;
+    r.options.dls_min_damping = 1e-158;
+    r.options.use_pole = true;
+    r.options.pole_in_base = glm::dvec3(0.039712906390662384, 0.037043880246811156, 0.29965193003863366);
+    r.options.max_restarts = 3;
+    r.options.restart_seed = 2846468581u;
+  }
+  ChainBuilder b;
+  b.add_joint(j).set_tip_offset(r.tip_offset);
+  EXPECT_TRUE(b.build(r.chain).empty());
+  return r;
+}
+
+// Nearer to its point than kAimAtOnPoint the effector sits on it (error 0 by definition); farther,
+// the direction is well defined: either way the reported final_error is the returned pose's angle
+// as recomputed here, to 1e-12. For every solver that takes aim-at goals, with and without restarts.
+TEST(FuzzFindings, AimAtFinalErrorIsTheReturnedPosesError) {
+  for (JointType type : {JointType::kBall, JointType::kHinge}) {
+    const AimAtReproducer rep = aim_at_reproducer(type);
+    ASSERT_TRUE(rep.chain.valid());
+    const std::vector<Goal> goals{rep.goal};
+    const double length = rep.chain.total_length();
+    for (const SolverInfo& info : solver_table()) {
+      if (!info.orientation_goals || info.joint_count != 0) continue;
+      // Restarts, and few enough iterations that the first run ends short of the goal and the
+      // restarts run (their best-pose bookkeeping is what the hinge reproducer found).
+      for (const auto& [restarts, iterations] : {std::pair{0, 0}, {3, 0}, {3, 2}}) {
+        SolverOptions o = rep.options;
+        o.max_restarts = restarts;
+        if (iterations > 0) o.max_iterations = iterations;
+        Workspace ws(rep.chain, 1);
+        Eigen::VectorXd p = rep.start;
+        const SolveResult r = solve(info.kind, rep.chain, goals, o, ws, p);
+        ASSERT_TRUE(r.usable()) << info.id << ": " << r.message.c_str();
+        const double angle = aim_at_angle_one_joint(rep.rotation(p), rep.tip_offset, length, rep.goal);
+        EXPECT_NEAR(r.final_error, angle, 1e-12 * (1.0 + angle))
+            << info.id << ", " << restarts << " restarts, " << to_string(r.reason);
+        EXPECT_EQ(r.final_orientation_error, r.final_error) << info.id;
+        if (iterations > 0) {
+          EXPECT_GT(r.restarts, 0) << info.id;
+        }
+      }
+    }
+    // The pose BFGS returned before: its tip ~1e-11 from the point, so on it, the goal met.
+    Eigen::VectorXd stalled = type == JointType::kBall
+                                  ? Eigen::VectorXd(Eigen::Vector3d(0.9823664623741053, -0.15848514398011418,
+                                                                    0.85231089973264507))
+                                  : Eigen::VectorXd::Constant(1, 7.2596558951786418);
+    EXPECT_LT(glm::length(rep.goal.target_position - test::tip_of(rep.chain, stalled)), 1e-10);
+    EXPECT_EQ(cost_of(rep.chain, goals, stalled), 0.0);
+    EXPECT_EQ(aim_at_angle_one_joint(rep.rotation(stalled), rep.tip_offset, length, rep.goal), 0.0);
+  }
+}
+
+// Found by the fuzzer once restarts were drawn: a result's iterations exceeded max_iterations.
+// They count every run (options.hpp), each run bounded by max_iterations: the fuzzer's property
+// was per solve; this pins the documented count.
+TEST(FuzzFindings, IterationsCountEveryRestart) {
+  const AimAtReproducer rep = aim_at_reproducer(JointType::kHinge);
+  const std::vector<Goal> goals{rep.goal};
+  SolverOptions o = rep.options;
+  o.max_iterations = 2;
+  Workspace ws(rep.chain, 1);
+  for (SolverKind kind : {SolverKind::kCCD, SolverKind::kJacobianPinv, SolverKind::kDLS, SolverKind::kBFGS}) {
+    Eigen::VectorXd once = rep.start, again = rep.start;
+    o.max_restarts = 0;
+    const SolveResult first = solve(kind, rep.chain, goals, o, ws, once);
+    o.max_restarts = 3;
+    const SolveResult r = solve(kind, rep.chain, goals, o, ws, again);
+    EXPECT_EQ(first.iterations, 2) << to_string(kind);
+    EXPECT_EQ(r.restarts, 3) << to_string(kind);
+    EXPECT_GT(r.iterations, first.iterations) << to_string(kind);
+    EXPECT_LE(r.iterations, o.max_iterations * (1 + r.restarts)) << to_string(kind);
+  }
 }
 
 }  // namespace

@@ -8,7 +8,7 @@
 //    a build that fails says why;
 //  - no NaN/inf in any output (result fields, params);
 //  - invalid input: params bit-identical to the input and a non-empty message;
-//  - iterations <= max_iterations;
+//  - iterations <= max_iterations per run (the first and each restart), restarts <= max_restarts;
 //  - solving the same input again on the same workspace gives the same verdict and pose, bit for bit;
 //  - the returned pose respects the joint limits;
 //  - "converged" => every goal within tolerance by an independent FK (plain GLM, none of the core's
@@ -158,11 +158,11 @@ Errors reference_errors(const Pose& pose, const std::vector<Goal>& goals, double
         out.max_orientation = std::max(out.max_orientation, e);
         break;
       case GoalKind::kAimAt: {
-        // The direction from the effector to the point; a point on the effector (closer than
-        // 1e-12 of the chain's length, aim_at_direction() in kinematics.cpp) has no direction and counts as met.
+        // The direction from the effector to the point; an effector on the point (nearer than
+        // kAimAtOnPoint of chain length + |point|, kinematics.hpp) has no direction and counts as met.
         const glm::dvec3 to_point = g.target_position - (k == n ? pose.tip : pose.origins[k]);
-        e = glm::length(to_point) > 1e-12 * chain_length ? angle_between(glm::normalize(eff_q * g.aim_axis), to_point)
-                                                           : 0.0;
+        const double on_point = kAimAtOnPoint * (chain_length + glm::length(g.target_position));
+        e = glm::length(to_point) > on_point ? angle_between(glm::normalize(eff_q * g.aim_axis), to_point) : 0.0;
         out.max_orientation = std::max(out.max_orientation, e);
         break;
       }
@@ -278,11 +278,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   for (Goal& g : goals) {
     const int kind = d.ConsumeIntegralInRange<int>(0, 14);
-    // Aim-at goals are not drawn yet: BFGS reported a final_error about 3.5e-6 off the returned
-    // pose's with them (tests/fuzz/known/); the reference above already handles them.
     g.kind = kind < 6    ? GoalKind::kPosition
              : kind < 9  ? GoalKind::kOrientation
-             : kind < 14 ? GoalKind::kAim
+             : kind < 11 ? GoalKind::kAim
+             : kind < 14 ? GoalKind::kAimAt
                          : static_cast<GoalKind>(9);
     g.effector = d.ConsumeIntegralInRange<int>(0, 7) == 0 ? d.ConsumeIntegralInRange<int>(-3, n + 3)
                                                           : d.ConsumeIntegralInRange<int>(0, n > 0 ? n : 0);
@@ -331,8 +330,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   // Budgets and restarts: small, so a run stays fast (the budget's overrun is checked below).
   if (maybe(20)) o.time_budget_usec = d.ConsumeBool() ? pick(d, 200.0) : d.ConsumeFloatingPointInRange(0.0, 50.0);
-  // Restarts are not drawn yet: with them, a reported final_error was found 3.6e-6 below the
-  // returned pose's (tests/fuzz/known/, see its README); until that is fixed they would fail every run.
+  if (maybe(21)) {
+    o.max_restarts = d.ConsumeIntegralInRange<int>(-1, 3);
+    o.restart_seed = d.ConsumeIntegral<unsigned>();
+  }
   const SolverKind kind = static_cast<SolverKind>(d.ConsumeIntegralInRange<int>(-1, kSolverKindCount));
 
   // ---------------------------------------------------------------- workspace and start pose
@@ -414,7 +415,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   // A usable result: the input was valid, so the chain built and everything below is defined.
   REQUIRE(chain.valid() && o.validate().empty() && goal_count > 0, "usable result for invalid input");
-  REQUIRE(r.iterations <= o.max_iterations, "iterations > max_iterations", r.iterations, o.max_iterations);
+  // max_iterations bounds each run; the result counts every run (options.hpp, restarts).
+  REQUIRE(r.restarts >= 0 && r.restarts <= o.max_restarts, "restarts outside 0..max_restarts", r.restarts,
+          o.max_restarts);
+  REQUIRE(r.iterations <= o.max_iterations * (1 + r.restarts), "iterations > max_iterations per run", r.iterations,
+          o.max_iterations);
   REQUIRE(params.allFinite(), "non-finite params");
   REQUIRE(within_limits(chain, params.data(), 1e-6), "returned pose violates the limits");
 
