@@ -384,7 +384,9 @@ AimAtReproducer aim_at_reproducer(JointType type) {
 
 // Nearer to its point than kAimAtOnPoint the effector sits on it (error 0 by definition); farther,
 // the direction is well defined: either way the reported final_error is the returned pose's angle
-// as recomputed here, to 1e-12. For every solver that takes aim-at goals, with and without restarts.
+// as recomputed here. Two FK implementations differ by ulps of the position (~2e-16 scale); at the
+// on-point radius (1e-6 scale) that moves the angle by ~2e-10, so 1e-9 - the finding's gap was
+// 3.5e-6. For every solver that takes aim-at goals, with and without restarts.
 TEST(FuzzFindings, AimAtFinalErrorIsTheReturnedPosesError) {
   for (JointType type : {JointType::kBall, JointType::kHinge}) {
     const AimAtReproducer rep = aim_at_reproducer(type);
@@ -404,7 +406,7 @@ TEST(FuzzFindings, AimAtFinalErrorIsTheReturnedPosesError) {
         const SolveResult r = solve(info.kind, rep.chain, goals, o, ws, p);
         ASSERT_TRUE(r.usable()) << info.id << ": " << r.message.c_str();
         const double angle = aim_at_angle_one_joint(rep.rotation(p), rep.tip_offset, length, rep.goal);
-        EXPECT_NEAR(r.final_error, angle, 1e-12 * (1.0 + angle))
+        EXPECT_NEAR(r.final_error, angle, 1e-9 * (1.0 + angle))
             << info.id << ", " << restarts << " restarts, " << to_string(r.reason);
         EXPECT_EQ(r.final_orientation_error, r.final_error) << info.id;
         if (iterations > 0) {
