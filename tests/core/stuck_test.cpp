@@ -139,6 +139,41 @@ TEST(Stuck, StraightLimbWithHingesOnTheirLimitIsLeftByEverySolver) {
   }
 }
 
+// The leg of tests/godot/tests/test_features.gd's knee case, in the core: a ball hip, a hinge knee
+// that folds one way only ([-2.6, 0] rad about x, the foot going forward) starting straight on its
+// limit 0, and a foot target behind, below the hip and closer than the leg's length. The gradient
+// asks the knee to bend the way its limit forbids, so the hip swings the straight leg toward the
+// target, onto the stationary point (before the shared escape every solver but BFGS and FABRIK
+// stopped there, 0.27 short). Without restarts every solver now folds the knee the way its limit
+// allows, turning the hip around, and reaches the target.
+TEST(Stuck, StraightLegWithKneeOnItsLimitReachesWithoutRestarts) {
+  ChainBuilder b;
+  JointDesc hip, knee;
+  hip.type = JointType::kBall;
+  knee.type = JointType::kHinge;
+  knee.hinge_axis = glm::dvec3(1, 0, 0);
+  knee.offset_translation = glm::dvec3(0, -0.45, 0);
+  knee.limits.has_hinge_limit = true;
+  knee.limits.hinge_min = -2.6;
+  knee.limits.hinge_max = 0.0;
+  b.add_joint(hip).add_joint(knee).set_tip_offset(glm::dvec3(0, -0.42, 0));
+  Chain c;
+  ASSERT_TRUE(b.build(c).empty());
+  Workspace ws(c, 1);
+  const std::vector<Goal> goals = {Goal::position(glm::dvec3(0.0, -0.55, -0.25))};
+  for (SolverKind kind : kIterativeSolvers) {
+    SolverOptions o = test::sweep_options(c, 500);
+    o.warm_start = false;
+    Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+    const SolveResult r = test::run(kind, c, goals, o, ws, p);
+    EXPECT_EQ(r.reason, TerminationReason::kConverged) << to_string(kind);
+    EXPECT_LE(glm::length(test::tip_of(c, p) - goals[0].target_position), o.position_tolerance) << to_string(kind);
+    EXPECT_TRUE(within_limits(c, p.data(), 0.0)) << to_string(kind);
+    EXPECT_LT(p[3], -0.1) << to_string(kind);  // the knee folded, within its range
+    EXPECT_EQ(r.restarts, 0) << to_string(kind);
+  }
+}
+
 // The best pose across escapes: on the straight limb, where every solver escapes at once, the
 // final error never grows with the iteration budget (each budget's run is a prefix of the next
 // one's, and what it returns is the best it saw) and never exceeds the straight start's.

@@ -13,10 +13,12 @@
 // The move stays in the null space of J, so to first order it keeps the effectors where they are
 // and changes only the configuration: first a step toward the rest pose (the pseudo-inverse's
 // classic secondary task: Liegeois 1977; Buss 2004, sec. 4), which e.g. untwists a chain caught at
-// a singular saddle; at the rest pose itself a fixed, deterministic direction (the kick) projected
-// the same way, with the sign that pushes no hinge resting on a bound outward - a straight limb
-// then folds the way its limits allow, its tip pulled toward the root at second order. Where
-// neither moves the pose off a stationary point, the kick itself. Deterministic: the same solve
+// a singular saddle. Where that does not leave the stationary point (at the rest pose itself, or
+// with the limits in the way), a fixed, deterministic direction (the kick) projected the same way,
+// with the sign that pushes no hinge resting on a bound outward: a straight limb whose knee sits
+// on its limit then folds the way the limit allows, its tip pulled toward the root at second
+// order. Failing both, the kick itself. Hinges on a bound that a step would push out are left out
+// of its projection (the active set of jacobian::limit_aware_step). Deterministic: the same solve
 // escapes the same way. Restarts (SolverOptions::max_restarts, solve.cpp) are the outer layer of
 // the same idea: an escape is a local perturbation inside one solve, a restart a new seeded start
 // pose across solves (docs/solvers.md, "When a solve is stuck").
@@ -172,36 +174,31 @@ class Escapes {
     double* before = ws_.params_trial.data();
     double* step = ws_.dof_vec_b.data();
     std::copy(params, params + n, before);
-    // 1. Toward the rest pose, in the null space of J (hinges on a bound it pushes out left alone).
+    // 1. Toward the rest pose, in the null space of J, the hinges on a bound it would push out
+    //    left out - kept when it moves the pose off the stationary point.
     linearize(params);
-    toward_rest(active, params, step);
-    freeze_blocked(active, params, step);
+    project_within_limits(active, params, step, [&](double* v) { toward_rest(active, params, v); });
+    if (largest(active, step) > kMinEscapeAngle && move(step, before, params)) return true;
+    // 2. The fixed kick direction in the null space of J, with the sign that pushes no hinge on a
+    //    bound out (the null space is symmetric); failing both signs, without the hinges that it
+    //    pushes out; failing that (no null space left), the kick itself.
+    std::copy(before, before + n, params);
+    linearize(params);
+    kick_direction(active, params, step);
     project_onto_null_space(active, step);
-    if (!(largest(active, step) > kMinEscapeAngle)) {
-      // 2. At rest already: the fixed kick direction, in the null space of J, with the sign that
-      // pushes no hinge on a bound out (the null space is symmetric); failing both signs, the
-      // hinges on a bound stay, and failing that (no null space), the kick itself.
+    if (pushes_out(active, params, step)) scale(active, -1.0, step);
+    if (pushes_out(active, params, step)) {
       linearize(params);
-      kick_direction(active, params, step);
-      project_onto_null_space(active, step);
-      if (pushes_out(active, params, step)) scale(active, -1.0, step);
-      if (pushes_out(active, params, step)) {
-        kick_direction(active, params, step);
-        freeze_blocked(active, params, step, /*any_sign=*/true);
-        project_onto_null_space(active, step);
-      }
-      const double size = largest(active, step);
-      if (size > 1e-9) {
-        scale(active, kKickAmplitude / size, step);
-      } else {
-        kick_direction(active, params, step);
-      }
+      project_within_limits(active, params, step, [&](double* v) { kick_direction(active, params, v); });
     }
-    apply_step(chain_, step, 0.0, params);
-    project_to_limits(chain_, params);
-    double moved = 0.0;
-    for (int j = 0; j < n; ++j) moved = std::max(moved, std::abs(params[j] - before[j]));
-    if (!(moved > kMinEscapeAngle) || still_stationary(params)) {
+    const double size = largest(active, step);
+    if (size > 1e-9) {
+      scale(active, kKickAmplitude / size, step);
+    } else {
+      kick_direction(active, params, step);
+    }
+    // 3. Where that leaves a stationary point, the kick on top.
+    if (!move(step, before, params)) {
       kick_direction(active, params, step);
       apply_step(chain_, step, 0.0, params);
       project_to_limits(chain_, params);
@@ -229,6 +226,45 @@ class Escapes {
     const auto e = ws_.residual.head(m);
     ws_.gradient.noalias() = J.transpose() * e;
     return is_singular_stationary(ws_.gradient.squaredNorm(), J.norm(), e.norm());
+  }
+
+  // params = before + step, projected onto the limits; true when that turned some DOF by more than
+  // kMinEscapeAngle and the new pose is no stationary point.
+  bool move(const double* step, const double* before, double* params) {
+    const int n = chain_.dof_count();
+    std::copy(before, before + n, params);
+    apply_step(chain_, step, 0.0, params);
+    project_to_limits(chain_, params);
+    double moved = 0.0;
+    for (int j = 0; j < n; ++j) moved = std::max(moved, std::abs(params[j] - before[j]));
+    return moved > kMinEscapeAngle && !still_stationary(params);
+  }
+
+  // v <- the null-space projection of the direction `fill` writes, with the active set of
+  // limit_aware_step: a hinge on a bound that the projected step pushes out leaves the problem (its
+  // entry 0, its column out of J) and the projection is solved again, while that adds any (at most
+  // jacobian::kMaxFreezePasses times). Needs J from linearize(); zeroes the frozen columns. Marks
+  // the frozen DOFs in ws.gradient.
+  template <class Fill>
+  void project_within_limits(int active, const double* params, double* v, Fill&& fill) {
+    const int m = 3 * goals_.size;
+    double* frozen = ws_.gradient.data();
+    std::fill(frozen, frozen + active, 0.0);
+    for (int pass = 0; pass <= jacobian::kMaxFreezePasses; ++pass) {
+      fill(v);
+      for (int j = 0; j < active; ++j)
+        if (frozen[j] != 0.0) v[j] = 0.0;
+      project_onto_null_space(active, v);
+      bool froze = false;
+      for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+        const int o = chain_.dof_offset(i);
+        if (frozen[o] != 0.0 || !hinge_blocked(chain_, i, params, v[o])) continue;
+        frozen[o] = 1.0;
+        ws_.jacobian.col(o).head(m).setZero();
+        froze = true;
+      }
+      if (!froze) return;
+    }
   }
 
   static double largest(int active, const double* v) {
@@ -273,20 +309,6 @@ class Escapes {
     for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i)
       if (hinge_blocked(chain_, i, params, v[chain_.dof_offset(i)])) return true;
     return false;
-  }
-
-  // The active set of limit_aware_step: a hinge on a bound that v pushes out (with any_sign, any
-  // hinge on a bound) leaves the null-space problem: its v entry and its J column become 0.
-  void freeze_blocked(int active, const double* params, double* v, bool any_sign = false) {
-    const int m = 3 * goals_.size;
-    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
-      const int o = chain_.dof_offset(i);
-      const bool blocked = any_sign ? hinge_blocked(chain_, i, params, 1.0) || hinge_blocked(chain_, i, params, -1.0)
-                                    : hinge_blocked(chain_, i, params, v[o]);
-      if (!blocked) continue;
-      v[o] = 0.0;
-      ws_.jacobian.col(o).head(m).setZero();
-    }
   }
 
   // v <- (I - J+ J) v over the active DOFs, J+ truncated below kEscapeTruncation |J| (so a nearly
