@@ -411,6 +411,7 @@ gdx::Dictionary IKChain::get_last_result() const {
                               written_.max_orientation <= orientation_tolerance_));
   put("budget_exhausted", gdx::Variant(last_.budget_exhausted));
   put("restarts", gdx::Variant(int64_t(last_.restarts)));
+  put("escapes", gdx::Variant(int64_t(last_.escapes)));
   put("solver", gdx::Variant(usable ? solver_info(last_solver_).display_name : ""));
   put("message", gdx::Variant(last_.message.c_str()));
   return d;

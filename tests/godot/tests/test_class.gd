@@ -103,8 +103,12 @@ func test_variant_set_get_round_trip() -> void:
 func test_last_result_before_any_solve() -> void:
 	var ik := IKChain.new()
 	var r: Dictionary = ik.get_last_result()
-	for key in ["reason", "iterations", "initial_error", "final_error", "microseconds", "usable"]:
+	for key in ["reason", "usable", "iterations", "initial_error", "final_error", "solver_final_error",
+			"position_error", "orientation_error", "microseconds", "reached", "budget_exhausted", "restarts",
+			"escapes", "solver", "message"]:
 		check(r.has(key), "get_last_result() has key " + key)
+	for key in ["restarts", "escapes"]:
+		check_eq(r.get(key), 0, key + " before any solve")
 	check_eq(r.get("reason"), "not_run", "reason before any solve")
 	check_eq(r.get("usable"), false, "usable before any solve")
 	for key in ["initial_error", "final_error"]:
