@@ -40,6 +40,7 @@
 #include <kdl/frames.hpp>
 #include <kdl/jntarray.hpp>
 
+#include "bench_common.hpp"
 #include "core/ikchain.hpp"
 
 namespace {
@@ -47,6 +48,12 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using ikchain::Chain;
 using ikchain::SolverKind;
+using bench::json_number;
+using bench::json_string;
+using bench::kdl_reason;
+using bench::quantile;
+using bench::start_loadavg;
+using bench::write_file;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRelTolerance = 1e-5;  // success: distance <= kRelTolerance * L
@@ -153,17 +160,6 @@ std::vector<SolverSpec> solver_specs() {
   };
 }
 
-// KDL's return codes in our result vocabulary (strError() gives whole sentences).
-const char* kdl_reason(int rc) {
-  switch (rc) {
-    case KDL::SolverI::E_NOERROR: return "converged";
-    case KDL::SolverI::E_MAX_ITERATIONS_EXCEEDED: return "max_iterations";
-    case KDL::ChainIkSolverPos_LMA::E_GRADIENT_JOINTS_TOO_SMALL: return "gradient_too_small";
-    case KDL::ChainIkSolverPos_LMA::E_INCREMENT_JOINTS_TOO_SMALL: return "increment_too_small";
-    default: return "kdl_error";
-  }
-}
-
 // One solve: the outcome a caller sees, with the distance measured by our own FK.
 struct Outcome {
   double us = 0.0;
@@ -255,66 +251,8 @@ class Runner {
 
 // ------------------------------------------------------------------------------------ JSON
 
-std::string json_number(double v, const char* fmt = "%.6g") {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), fmt, v);
-  return buf;
-}
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) continue;
-    out += c;
-  }
-  return out + "\"";
-}
-
-bool write_file(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  if (!f) {
-    std::fprintf(stderr, "cannot write %s\n", path.c_str());
-    return false;
-  }
-  return true;
-}
-
-std::string read_loadavg() {
-  std::string load = "unknown";
-  std::ifstream loadavg("/proc/loadavg");
-  std::getline(loadavg, load);
-  return load;
-}
-
-// The machine's load when the run started (other jobs on a shared machine inflate the times).
-const std::string& start_loadavg() {
-  static const std::string load = read_loadavg();
-  return load;
-}
-
 std::string meta_json(bool quick) {
-  std::string cpu = "unknown";
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  for (std::string line; std::getline(cpuinfo, line);) {
-    if (line.rfind("model name", 0) == 0) {
-      cpu = line.substr(line.find(':') + 2);
-      break;
-    }
-  }
-  char date[32];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof(date), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  std::string s = "{";
-  s += "\"date\": " + json_string(date);
-  s += ", \"cpu\": " + json_string(cpu);
-  s += ", \"loadavg_at_start\": " + json_string(start_loadavg());
-  s += ", \"loadavg_at_write\": " + json_string(read_loadavg());
-  s += ", \"compiler\": " + json_string(__VERSION__);
-  s += ", \"flags\": \"-O2 -DNDEBUG\"";
-  s += ", \"quick\": " + std::string(quick ? "true" : "false");
+  std::string s = bench::meta_json_head(quick);
   s += ", \"chain\": \"n hinges alternating z/y, unit links along +Y, tip 1 beyond the last joint (L = n)\"";
   s += ", \"success\": \"own-FK tip distance <= 1e-5 * L\"";
   s += ", \"start\": \"rest pose (warm_start = false; KDL: q_init = 0)\"";
@@ -329,15 +267,6 @@ std::string meta_json(bool quick) {
 }
 
 // ------------------------------------------------------------------------------------ core.json
-
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double pos = q * (v.size() - 1);
-  const size_t lo = static_cast<size_t>(pos);
-  const size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - lo) * (v[hi] - v[lo]);
-}
 
 // Trials per chain length: many for the cheap small chains, fewer for the long ones. A cell also
 // stops after kCellSeconds (with at least kMinTrials) so the whole run stays well under 3 minutes

@@ -43,12 +43,17 @@
 #include <kdl/chainiksolvervel_pinv.hpp>
 #include <kdl/jntarray.hpp>
 
+#include "bench_common.hpp"
 #include "robot_chain.hpp"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
 using ikchain::SolverKind;
+using bench::json_number;
+using bench::json_string;
+using bench::kdl_reason;
+using bench::quantile;
 
 constexpr double kRelPositionTolerance = 1e-5;  // success: position error <= 1e-5 * L
 constexpr double kOrientationTolerance = 1e-4;  // rad
@@ -88,37 +93,11 @@ std::vector<SolverSpec> solver_specs() {
 
 // ------------------------------------------------------------------------------------ helpers
 
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double pos = q * (v.size() - 1);
-  const size_t lo = static_cast<size_t>(pos);
-  const size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - lo) * (v[hi] - v[lo]);
-}
-
 double mean(const std::vector<double>& v) {
   if (v.empty()) return NAN;
   double s = 0.0;
   for (double x : v) s += x;
   return s / v.size();
-}
-
-std::string json_number(double v, const char* fmt = "%.6g") {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), fmt, v);
-  return buf;
-}
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) continue;
-    out += c;
-  }
-  return out + "\"";
 }
 
 std::string json_counts(const std::map<std::string, int>& m) {
@@ -127,29 +106,12 @@ std::string json_counts(const std::map<std::string, int>& m) {
   return s + "}";
 }
 
-std::string read_first_line(const char* path, const char* prefix) {
-  std::ifstream f(path);
-  for (std::string line; std::getline(f, line);)
-    if (!prefix || line.rfind(prefix, 0) == 0) return prefix ? line.substr(line.find(':') + 2) : line;
-  return "unknown";
-}
-
 // This thread's CPU time (us): what a solve costs without the time other processes took the core
 // away (the machine is shared; wall-clock percentiles include that preemption).
 double thread_cpu_us() {
   timespec ts;
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
-}
-
-const char* kdl_reason(int rc) {
-  switch (rc) {
-    case KDL::SolverI::E_NOERROR: return "converged";
-    case KDL::SolverI::E_MAX_ITERATIONS_EXCEEDED: return "max_iterations";
-    case KDL::ChainIkSolverPos_LMA::E_GRADIENT_JOINTS_TOO_SMALL: return "gradient_too_small";
-    case KDL::ChainIkSolverPos_LMA::E_INCREMENT_JOINTS_TOO_SMALL: return "increment_too_small";
-    default: return "kdl_error";
-  }
 }
 
 // ------------------------------------------------------------------------------------ an arm
@@ -474,22 +436,8 @@ void print_row(const Cell& c) {
   std::fflush(stdout);
 }
 
-const std::string& start_load() {
-  static const std::string load = read_first_line("/proc/loadavg", nullptr);
-  return load;
-}
-
 std::string meta_json(bool quick, int trials) {
-  char date[32];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof(date), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  std::string s = "{";
-  s += "\"date\": " + json_string(date);
-  s += ", \"cpu\": " + json_string(read_first_line("/proc/cpuinfo", "model name"));
-  s += ", \"loadavg_at_write\": " + json_string(read_first_line("/proc/loadavg", nullptr));
-  s += ", \"compiler\": " + json_string(__VERSION__);
-  s += ", \"flags\": \"-O2 -DNDEBUG\"";
-  s += ", \"quick\": " + std::string(quick ? "true" : "false");
+  std::string s = bench::meta_json_head(quick);
   s += ", \"goals_per_arm\": " + std::to_string(trials);
   s += ", \"goals\": \"KDL FK of seeded uniform random joint vectors within the URDF limits\"";
   s += ", \"start\": \"middle of the limits (warm_start = true); KDL: q_init = the same\"";
@@ -499,7 +447,6 @@ std::string meta_json(bool quick, int trials) {
   s += ", \"geometric_restart_goals\": " + std::to_string(kGeometricRestartGoals);
   s += ", \"times\": \"cpu_*: this thread's CPU time (CLOCK_THREAD_CPUTIME_ID) around the call, the targets' measure; "
        "*_us: wall clock (steady_clock), which on a shared machine includes preemption by other processes\"";
-  s += ", \"loadavg_at_start\": " + json_string(start_load());
   s += ", \"time_budget_us\": " + json_number(kBudgetUs);
   s += ", \"max_iterations\": {";
   bool first = true;
@@ -536,7 +483,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const Clock::time_point run_start = Clock::now();
-  start_load();
+  bench::start_loadavg();
   const int trials = quick ? 100 : 2000;
   std::string arms_json, records;
   std::vector<Cell> all;
@@ -624,13 +571,10 @@ int main(int argc, char** argv) {
   }
 
   const std::string path = out_dir + "/robots.json";
-  std::ofstream f(path);
-  f << "{\"meta\": " << meta_json(quick, trials) << ",\n\"arms\": [" << arms_json << "\n],\n\"records\": [" << records
-    << "\n],\n\"targets_met\": [" << targets_json << "\n]}\n";
-  if (!f) {
-    std::fprintf(stderr, "cannot write %s\n", path.c_str());
+  if (!bench::write_file(path, "{\"meta\": " + meta_json(quick, trials) + ",\n\"arms\": [" + arms_json +
+                                    "\n],\n\"records\": [" + records + "\n],\n\"targets_met\": [" + targets_json +
+                                    "\n]}\n"))
     return 1;
-  }
   std::fprintf(stderr, "robots.json written (%s) in %.1f s\n", path.c_str(),
                std::chrono::duration<double>(Clock::now() - run_start).count());
   return 0;
