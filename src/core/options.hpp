@@ -16,9 +16,9 @@ enum class SolverKind : int {
 };
 constexpr int kSolverKindCount = 6;
 // 2^-60 of any step is below the resolution of a double angle: more halvings only cost time
-// (1e7 of them took 79 s for one solve).
+// (docs/solvers.md, "Why these constants").
 constexpr int kMaxPinvHalvings = 60;
-// The same for the BFGS line search's trial steps (the fuzzer's 227380621 ran past 30 s): its
+// The same for the BFGS line search's trial steps (a fuzzer input ran for seconds without it): its
 // bracket shrinks at every step, and 100 steps are far past where the step stops changing.
 constexpr int kMaxBfgsLineSearchSteps = 100;
 const char* to_string(SolverKind kind);
@@ -28,8 +28,9 @@ struct SolverOptions {
   int max_iterations = 100;            // > 0; one iteration = one solver step / sweep
   double position_tolerance = 1e-5;    // m; converged when every position goal is this close
   double orientation_tolerance = 1e-4; // rad; converged when every orientation/aim goal is this close
-  // Stop as "stalled" when an iteration improves the objective by less than this fraction
-  // (relative, dimensionless) a few times in a row.
+  // A solve is stuck when 3 iterations in a row lower the best objective seen by less than this
+  // fraction of it (relative, dimensionless); it then escapes (at most 4 times) or stops as
+  // "stalled" (solvers/stuck.hpp, docs/solvers.md "When a solve is stuck").
   double stall_tolerance = 1e-10;
   // true: start from the params given (the current pose); false: start from the rest pose
   // (params = 0), so the result depends only on the goals (deterministic across frames).
@@ -60,9 +61,8 @@ struct SolverOptions {
   // The step is halved while the change the trial pose achieves misses the change the step
   // promised (J J+ de) by more than this fraction of it (dimensionless, in (0, 1]); see
   // solvers/jacobian_pinv.cpp for why this, not |(I - J J+) de| / |de|, is what halving controls.
-  // 0.5: a step must deliver at least half the change it promised. Measured on the benchmark
-  // hinge chains (n = 3 / 10, 2000 targets): 0.1 needs a median of 31 / 28 iterations and leaves
-  // 2.8% of 3-joint targets unsolved in 100; 0.5 needs 10 / 10 and solves all.
+  // 0.5: a step must deliver at least half the change it promised (stricter values need several
+  // times the iterations: docs/solvers.md, "Why these constants").
   double pinv_residual_tolerance = 0.5;
   int pinv_max_halvings = 20;          // in [0, kMaxPinvHalvings]
   double pinv_singular_threshold = 1e-9;  // singular values below this (m/rad) are treated as 0

@@ -86,8 +86,8 @@ inline glm::dvec3 wrap_rotation_vector(const glm::dvec3& r) {
 // Cody-Waite reduction by pi/2, as in fdlibm's e_rem_pio2.c) is accurate to ~1 ulp for |x| < 1e5
 // and several times faster. Larger or non-finite x fall back to libm.
 // Branch-free past that test: solver poses put half-angles on both sides of +-pi/4 at random, so
-// a branch on the quadrant mispredicts about every other call (measured with valgrind's branch
-// simulator on the 10-joint benchmark: a third of a DLS solve's mispredictions came from it).
+// a branch on the quadrant mispredicts about every other call (docs/solvers.md, "Why these
+// constants").
 inline void fast_sincos(double x, double& sin_x, double& cos_x) {
   if (!(std::abs(x) < 1e5)) {
     sin_x = std::sin(x);

@@ -8,6 +8,7 @@
 #include "core/kinematics.hpp"
 #include "core/solvers/geometric_common.hpp"
 #include "core/solvers/solvers.hpp"
+#include "core/solvers/stuck.hpp"
 
 namespace ikchain {
 
@@ -36,48 +37,10 @@ void make_start_pose(const Chain& chain, const SolverOptions& options, Eigen::Re
   project_to_limits(chain, params.data());
 }
 
-// Largest distance effector k (1..n) can be from the root joint's origin o_0: the bones before it.
-double reach_of(const Chain& chain, int k) {
-  double reach = 0.0;
-  for (int i = 0; i < k; ++i) reach += chain.bone_length(i);
-  return reach;
-}
-
-// Smallest distance effector k can be from o_0 (triangle inequality): the longest bone before it
-// minus all the others, or 0.
-double inner_reach_of(const Chain& chain, int k) {
-  if (chain.first_prismatic() >= 0) return 0.0;  // bone lengths are upper bounds then
-  double longest = 0.0;
-  for (int i = 0; i < k; ++i) longest = std::max(longest, chain.bone_length(i));
-  return std::max(0.0, 2.0 * longest - reach_of(chain, k));
-}
-
-// How far a position goal's target is outside its effector's reach shell around o_0 (<= 0 inside).
-double outside_reach(const Chain& chain, const Goal& g) {
-  const int k = resolve_effector(chain, g.effector);
-  const double dist = glm::length(g.target_position - chain.root_in_base());
-  return std::max(dist - reach_of(chain, k), inner_reach_of(chain, k) - dist);
-}
-
-// True when the goals provably cannot all be met, by the chain's workspace bounds: a position goal
-// outside its effector's reach shell around o_0 (farther than the bones before it, or nearer than
-// the longest of them minus the others), or two position goals farther apart than the bones
-// between their effectors. (Orientation conflicts and limits are not bounded here: a solve they
-// stop is "stalled", which promises nothing about reachability.)
-bool provably_out_of_reach(const Chain& chain, Span<const Goal> goals, double tolerance) {
-  for (int a = 0; a < goals.size; ++a) {
-    if (goals[a].kind != GoalKind::kPosition) continue;
-    const int ka = resolve_effector(chain, goals[a].effector);
-    if (outside_reach(chain, goals[a]) > tolerance) return true;
-    for (int b = a + 1; b < goals.size; ++b) {
-      if (goals[b].kind != GoalKind::kPosition) continue;
-      const int kb = resolve_effector(chain, goals[b].effector);
-      const double between = std::abs(reach_of(chain, kb) - reach_of(chain, ka));
-      if (glm::length(goals[b].target_position - goals[a].target_position) > between + tolerance) return true;
-    }
-  }
-  return false;
-}
+// The reach bounds (outside_reach, provably_out_of_reach) are the escapes' (solvers/stuck.hpp):
+// one verdict on "provably out of reach" for escapes, restarts and the reason.
+using stuck::outside_reach;
+using stuck::provably_out_of_reach;
 
 // A non-converged stop is "unreachable" only when the goals are provably out of reach
 // (provably_out_of_reach) and the pose is a best reach: for a single tip position goal, the tip as
@@ -237,9 +200,10 @@ void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
 
 // Seeded restarts (SolverOptions::max_restarts): while the goals are unmet, not provably out of
 // reach, restarts are left and the time budget is not spent, the solver runs again from a random
-// pose within the limits; the best pose over every run is kept (params, status). One mechanism for
-// every solver: what a run does when stuck stays the solver's business, this only decides whether
-// to try elsewhere.
+// pose within the limits; the best pose over every run is kept (params, status). The outer layer
+// of the stuck -> escape mechanism (solvers/stuck.hpp): inside a run, a stuck solve escapes by a
+// local, deterministic move (at most stuck::kMaxEscapes); across runs, a restart re-seeds the
+// whole pose. Iterations and escapes count every run.
 void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                   Workspace& ws, double* p, SolverStatus& status, int& restarts) {
   if (options.max_restarts <= 0 || kind == SolverKind::kTwoBone) return;
@@ -253,11 +217,13 @@ void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   std::copy(p, p + dofs, ws.params_restart_best.data());
   SolverStatus best = status;
   int iterations = status.iterations;
+  int escapes = status.escapes;
   while (restarts < options.max_restarts && !ws.deadline.hit && !ws.deadline.spent()) {
     ++restarts;
     random_pose(chain, rng, p);
     SolverStatus run = run_solver(kind, chain, goals, options, ws, p);
     iterations += run.iterations;
+    escapes += run.escapes;
     if (run.reason == TerminationReason::kInvalidInput) break;
     forward_kinematics(chain, p, ws);
     const GoalErrors err = measure_goals(chain, goals, ws);
@@ -273,6 +239,7 @@ void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   std::copy(ws.params_restart_best.data(), ws.params_restart_best.data() + dofs, p);
   status = best;
   status.iterations = iterations;
+  status.escapes = escapes;
 }
 
 }  // namespace
@@ -410,7 +377,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     return finish();
   }
   ws.params_backup = params;
-  // The clock is read only for a budget (a 10-joint DLS solve takes ~2.5 us; a clock read ~25 ns).
+  // The clock is read only for a budget: a read is not free next to a short solve.
   ws.deadline.start(options.time_budget_usec, options.time_budget_usec > 0.0 ? ws.deadline.now_us() : 0.0);
   double* p = params.data();
 
@@ -436,6 +403,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   result.initial_position_error = start_err.max_position;
   result.initial_orientation_error = start_err.max_orientation;
   result.iterations = status.iterations;
+  result.escapes = status.escapes;
   result.reason = status.reason;
   result.message = status.message;
 

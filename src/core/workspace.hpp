@@ -49,7 +49,8 @@ struct Workspace {
   Eigen::MatrixXd dof_square;      // dofs x dofs, e.g. BFGS inverse Hessian
   Eigen::VectorXd params_backup;   // the caller's params, restored on failure
   Eigen::VectorXd params_trial;
-  Eigen::VectorXd params_best;
+  Eigen::VectorXd params_best;   // the best pose a solve has seen (solvers/stuck.hpp)
+  Eigen::VectorXd params_kept;   // BFGS: the line search's best acceptable point
   Eigen::VectorXd params_restart_best;  // the best pose over the restarts of one solve
   Eigen::VectorXd step;
   Eigen::VectorXd gradient;

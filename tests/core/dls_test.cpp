@@ -29,7 +29,7 @@ TEST(DLS, PrecisionCaseEndsExactlyTwoBeyondReach) {
 }
 
 // Straight chain (rest pose), target on its own line: J^T e = 0 there, every Jacobian method stands
-// still without the solver's deterministic kick. Straight ahead but closer, and behind the root.
+// still without the shared escape (solvers/stuck.hpp). Straight ahead but closer, and behind the root.
 TEST(DLS, SingularStartsOnTheChainLineAreSolved) {
   test::expect_jacobian_singular_starts_solved(kKind, options_for);
 }

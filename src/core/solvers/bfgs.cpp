@@ -30,12 +30,12 @@
 // rotation vector), so phi(alpha) is smooth. Ball rotation vectors are wrapped to angle <= pi only
 // when a point is accepted (apply_step); a wrap changes the chart, so H is reset then.
 //
-// Singular starts. A straight chain with the target on its axis (ahead, behind, or on the root)
+// Stuck (stuck.hpp). A straight chain with the target on its axis (ahead, behind, or on the root)
 // has grad f = 0 exactly: no gradient method moves. These points are saddles: bending in the null
-// space of J pulls the tip toward the root at second order. At a stationary point with error left
-// (or when no progress is possible) the solver probes f at +-v, v = a fixed generic vector
-// projected onto null(J) and scaled to a small joint rotation; it moves if either side is lower,
-// else it stops (a true minimum, e.g. the best reach of an unreachable target).
+// space of J pulls the tip toward the root at second order. A stationary point with error left,
+// the shared stall rule, or a line search that fails even from a fresh Gauss-Newton step call the
+// shared escape, and the descent goes on from the moved pose with a new H; with no escape left the
+// solve stops as stalled at the best pose seen.
 //
 // Limits (a bounded variant of projection, documented choice). Hinge DOFs sitting on a bound with
 // the gradient pushing outward are frozen (removed from the direction, and from J for the
@@ -56,6 +56,7 @@
 
 #include "core/kinematics.hpp"
 #include "core/solvers/solvers.hpp"
+#include "core/solvers/stuck.hpp"
 
 namespace ikchain {
 namespace {
@@ -66,10 +67,6 @@ constexpr double kFirstTrialRotation = 1.0;
 constexpr double kMaxIterationRotation = 3.14159265358979323846;
 // Stationary when |grad f| <= this * L * error (dimensionless; L = chain length).
 constexpr double kStationary = 1e-12;
-// "Small" gradient for stall decisions: the same measure solve() uses to call a pose a best reach.
-constexpr double kSmallGradient = 1e-6;
-// Saddle escape probe: largest joint rotation of the probe steps (rad).
-constexpr double kProbeRotations[] = {0.05, 0.5};
 
 // out = H x for a symmetric H of which only the lower triangle is stored: one pass over it, as
 // Eigen's selfAdjointView product (which warns -Wmaybe-uninitialized inside Eigen on GCC).
@@ -103,7 +100,8 @@ class Bfgs {
         ws_(ws),
         n_(chain.dof_count()),
         rows_(3 * goals.size),
-        x_(params, chain.dof_count()) {}
+        x_(params, chain.dof_count()),
+        escapes_(chain, goals, options, ws) {}
 
   SolverStatus run();
 
@@ -279,7 +277,7 @@ class Bfgs {
 
   // Remembers `t` (just evaluated by try_step) as the best acceptable point so far.
   void keep(const Trial& t) {
-    ws_.params_best = ws_.params_trial;
+    ws_.params_kept = ws_.params_trial;
     ws_.dof_vec_a = ws_.gradient_trial;
     kept_ = t;
     have_kept_ = true;
@@ -295,7 +293,7 @@ class Bfgs {
 
   bool line_search(double alpha_init, double alpha_max);
   bool zoom(Trial lo, Trial hi, int evals);
-  bool escape_saddle();
+  bool escape();
   void accept(bool allow_update);
   void update_inverse_hessian();
 
@@ -306,6 +304,8 @@ class Bfgs {
   const int n_;
   const int rows_;
   Eigen::Map<Eigen::VectorXd> x_;
+  stuck::StallRule stall_;
+  stuck::Escapes escapes_;
 
   GoalErrors err_;          // at x
   double f0_ = 0.0;         // f(x) at the start of the line search
@@ -374,38 +374,20 @@ bool Bfgs::zoom(Trial lo, Trial hi, int evals) {
   return have_kept_;
 }
 
-// At a stationary point with error left: probe +-v, v in null(J) (see the file comment).
-bool Bfgs::escape_saddle() {
-  jacobian_at_x();
-  auto J = ws_.jacobian.topRows(rows_);
-  // A fixed generic direction (deterministic: the solve must not depend on anything but its input).
-  for (int i = 0; i < n_; ++i) ws_.step[i] = std::sin(2.4 * i + 1.0);
-  zero_frozen(ws_.step);
-  ws_.goal_vec.head(rows_).noalias() = J * ws_.step;
-  solve_normal_equations();
-  ws_.step.noalias() -= J.transpose() * ws_.goal_vec.head(rows_);
-  zero_frozen(ws_.step);
-  const double rot = max_rotation(ws_.step);
-  if (!(rot > 1e-12)) return false;
-  f0_ = err_.cost;
-  dphi0_ = 0.0;
-  for (double probe : kProbeRotations) {
-    for (double sign : {1.0, -1.0}) {
-      const Trial t = try_step(sign * probe / rot);
-      if (t.f < f0_ * (1.0 - 1e-12)) {
-        keep(t);
-        accept(false);
-        return true;
-      }
-    }
-  }
-  return false;
+// Stuck at x: the shared escape moves x (true; a new BFGS cycle starts there) or none is left.
+bool Bfgs::escape() {
+  if (!escapes_.escape(x_.data(), err_.cost)) return false;
+  err_ = evaluate(x_.data(), ws_.gradient);
+  jacobian_current_ = true;
+  fresh_ = true;
+  stall_.reset(err_.cost);
+  return true;
 }
 
 // x <- the kept point; grad f <- its gradient; H updated with (s, y) when allowed.
 void Bfgs::accept(bool allow_update) {
   // s = x+ - x into ws.step, y = g+ - g into ws.gradient_trial.
-  ws_.step = ws_.params_best - x_;
+  ws_.step = ws_.params_kept - x_;
   ws_.gradient_trial = ws_.dof_vec_a - ws_.gradient;
   // The pair lives on the free DOFs (s is 0 on frozen ones): with H reset at every active-set
   // change, H stays block diagonal and its free block is the BFGS matrix of the reduced problem.
@@ -416,7 +398,7 @@ void Bfgs::accept(bool allow_update) {
   moved_x();
   bool wrapped = false;
   for (int i = 0; i < n_; ++i)
-    if (x_[i] != ws_.params_best[i]) wrapped = true;
+    if (x_[i] != ws_.params_kept[i]) wrapped = true;
   if (wrapped) {
     // The chart changed (and with it the gradient's coordinates): start a new BFGS cycle there.
     err_ = evaluate(x_.data(), ws_.gradient);
@@ -467,24 +449,22 @@ SolverStatus Bfgs::run() {
   err_ = evaluate(x_.data(), ws_.gradient);
   jacobian_current_ = true;
   fresh_ = true;
-  int small_steps = 0;  // consecutive iterations improving f by less than stall_tolerance
+  stall_.reset(err_.cost);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
     if (it > 0 && ws_.deadline.spent()) break;  // the time budget: kMaxIterations
     if (err_.within(options_)) {
       status.reason = TerminationReason::kConverged;
       status.iterations = it;
+      status.escapes = escapes_.used();
       return status;
     }
     const double scale = length * err_.combined;
     ws_.dof_vec_b = ws_.gradient;
     zero_frozen(ws_.dof_vec_b);
     const double gnorm = ws_.dof_vec_b.norm();
-    const bool stationary = gnorm <= kStationary * scale;
-    const bool stalled = (small_steps >= 3 && gnorm <= kSmallGradient * scale) || small_steps >= 10;
-    if (stationary || stalled) {
-      small_steps = 0;
-      if (escape_saddle()) continue;
+    if (gnorm <= kStationary * scale) {  // a stationary point with error left
+      if (escape()) continue;
       break;
     }
 
@@ -501,7 +481,7 @@ SolverStatus Bfgs::run() {
     dphi0_ = ws_.gradient.dot(ws_.step);
     const double rot = max_rotation(ws_.step);
     if (!(dphi0_ < 0.0) || !(rot > 0.0)) {
-      if (escape_saddle()) continue;
+      if (escape()) continue;
       break;
     }
     const double cap = options_.max_step_angle > 0.0 ? options_.max_step_angle : kMaxIterationRotation;
@@ -513,19 +493,24 @@ SolverStatus Bfgs::run() {
         fresh_ = true;  // retry from a Gauss-Newton step with a new H
         continue;
       }
-      if (escape_saddle()) continue;
+      if (escape()) continue;
       break;
     }
-    const double f_old = err_.cost;
     accept(true);
-    small_steps = (f_old - err_.cost) <= options_.stall_tolerance * f_old ? small_steps + 1 : 0;
+    if (stall_.stalled_after(err_.cost, options_.stall_tolerance)) {
+      if (escape()) continue;
+      break;
+    }
   }
   status.iterations = it;
-  if (err_.within(options_))
+  status.escapes = escapes_.used();
+  if (err_.within(options_)) {
     status.reason = TerminationReason::kConverged;
-  else
-    status.reason = it >= options_.max_iterations || ws_.deadline.hit ? TerminationReason::kMaxIterations
-                                                                      : TerminationReason::kStalled;
+    return status;
+  }
+  status.reason = it >= options_.max_iterations || ws_.deadline.hit ? TerminationReason::kMaxIterations
+                                                                    : TerminationReason::kStalled;
+  escapes_.restore_best(x_.data(), err_.cost);  // an escape that ended worse costs nothing
   return status;
 }
 

@@ -32,11 +32,10 @@
 //    root to tip (geometric::aim_chain_at_points); later sweeps only refine it under limits.
 //  - CCD's fixed points include saddles: a straight chain with the target straight ahead but closer
 //    gives every joint a == b in direction, so no joint moves. A sweep that moves no joint while
-//    the goals are not met curls every joint by Progress::kKickAngle (geometric::curl; at most Progress::kMaxKicks
-//    times) and goes on.
-// Termination: converged on tolerance; stalled after kStallIterations sweeps in a row that improve
-// the cost by less than stall_tolerance (relative to the previous sweep's), or after a sweep that
-// moved nothing (a fixed point); otherwise the iteration budget. The best pose seen is returned.
+//    the goals are not met counts as stuck, like the stall rule (geometric::Progress, stuck.hpp):
+//    the shared escape moves the pose and the sweeps go on.
+// Termination: converged on tolerance; stalled when stuck with no escape left; otherwise the
+// iteration budget. The best pose seen is returned.
 #include <cmath>
 
 #include "core/kinematics.hpp"
@@ -79,7 +78,7 @@ SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverO
   geometric::Tracked tracked[kMaxGoals];
   const int n = chain.joint_count();
   // One tip position goal at or beyond full reach: straighten toward it first (see above).
-  geometric::Progress progress(chain, goals, options, ws, params, geometric::kStallIterations);
+  geometric::Progress progress(chain, goals, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;
   while (status.iterations < options.max_iterations) {
     double moved = INFINITY;
@@ -93,6 +92,7 @@ SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverO
     if (progress.stop_after_iteration(params, moved, status.reason)) break;
   }
   progress.finish(status.reason, params);
+  status.escapes = progress.escapes();
   return status;
 }
 

@@ -14,14 +14,16 @@
 // both fused in O(n) with 3x3 algebra (jacobian_common.hpp).
 //
 // Iterations count trials: every evaluated step, accepted or not, is one of max_iterations.
-// Stops: converged; "stalled" when mu reaches dls_max_damping without an acceptable step, or when
-// kStallCount accepted steps in a row improve the cost by less than stall_tolerance (relative) -
-// solve() turns a stall at a best reach into kUnreachable.
+// Stuck (stuck.hpp): the stall rule over the accepted steps, mu reaching dls_max_damping without an
+// acceptable step, or a vanishing gradient with error left (a singular stationary point, where
+// every damped step is zero). Each calls the shared escape; with none left the solve stops as
+// "stalled" at the best pose seen - solve() turns a stall at a best reach into kUnreachable.
 #include <algorithm>
 #include <cmath>
 
 #include "core/kinematics.hpp"
 #include "core/solvers/jacobian_common.hpp"
+#include "core/solvers/stuck.hpp"
 #include "core/solvers/solvers.hpp"
 
 namespace ikchain {
@@ -29,13 +31,12 @@ namespace {
 
 // On a rejected trial the damping grows at least to this fraction of trace(J J^T) (the sum of the
 // Gram eigenvalues): after a run of good steps mu is orders of magnitude below the eigenvalues, and
-// doubling it from there (Nielsen's rule alone) only rejected the next 4-5 trials too. Benchmark
-// hinge chains, three seeds of 4000 targets each: mean iterations 9.4 / 7.9 / 7.3 / 6.4 instead of
-// 11.2 / 9.2 / 8.5 / 6.9 at n = 3 / 5 / 7 / 10, success rates unchanged (>= 99.95%).
+// doubling it from there (Nielsen's rule alone) only rejects the next trials too (docs/solvers.md,
+// "Why these constants").
 constexpr double kRejectedMinDamping = 1e-2;
 
 // Largest |second-order correction| / |step| applied (Transtrum & Sethna 2012 use a ratio test
-// too; measured on the benchmark chains, 3 beats 0.5-1: fewer iterations, same success rate).
+// too; the value: docs/solvers.md, "Why these constants").
 constexpr double kMaxAccelerationRatio = 3.0;
 
 template <class Model>
@@ -57,17 +58,38 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
     return status;
   }
   model.linearize(params);
-  int kicks_left = 2;
-  double best_cost = INFINITY;
-  jacobian::kick_if_stuck(chain, goals, model, ws, params, kicks_left, best_cost);
-
-  double mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
+  const double initial_mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
+  double mu = initial_mu;
   double nu = 2.0;
-  int small_improvements = 0;
+  stuck::StallRule stall(model.cost());
+  stuck::Escapes escapes(chain, goals, o, ws);
+  // Stuck at params: escape and start again there (true), or no escape left (false).
+  auto escape = [&]() {
+    if (!escapes.escape(params, model.cost())) return false;
+    model.evaluate(params);
+    model.accept();
+    model.linearize(params);
+    stall.reset(model.cost());
+    mu = initial_mu;
+    nu = 2.0;
+    return true;
+  };
+  auto singular_stationary = [&]() {
+    return stuck::is_singular_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm());
+  };
+  if (singular_stationary()) escape();
+
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
     if (it > 1 && ws.deadline.spent()) break;  // the time budget: kMaxIterations
     status.iterations = it;
+    if (model.converged(o)) {  // an escape landed there
+      status.iterations = it - 1;
+      status.reason = TerminationReason::kConverged;
+      status.final = model.errors();
+      status.final_measured = true;
+      break;
+    }
     const double cost = model.cost();
     const double predicted = jacobian::limit_aware_step(
         chain, model, params, ws.step.data(), [&](double* step) { return model.damped_step(mu, step); });
@@ -75,8 +97,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
       // Geodesic acceleration (see SinglePositionModel::acceleration), skipped when the correction
       // dwarfs the step itself: the quadratic model is not to be trusted that far. Also skipped on
       // a retry after a rejected trial (nu > 2): the model just failed at that radius, so its
-      // curvature is not trusted either (10-joint benchmark chain, 5000 targets: 6.87 instead of
-      // 7.23 iterations on average, same success).
+      // curvature is not trusted either.
       const int active = model.active_dofs();
       const double correction = model.acceleration(ws.step.data(), ws.dof_vec_a.data());
       if (correction <= kMaxAccelerationRatio * ws.step.head(active).norm())
@@ -94,8 +115,8 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
         break;
       }
       const double gain = cost - trial_cost;
-      small_improvements = gain <= o.stall_tolerance * cost ? small_improvements + 1 : 0;
-      if (small_improvements >= jacobian::kStallCount) {
+      if (stall.stalled_after(trial_cost, o.stall_tolerance)) {
+        if (escape()) continue;
         status.reason = TerminationReason::kStalled;
         break;
       }
@@ -104,9 +125,11 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
       const double r = 2.0 * rho - 1.0;
       mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - r * r * r), o.dls_min_damping);
       nu = 2.0;
-      jacobian::kick_if_stuck(chain, goals, model, ws, params, kicks_left, best_cost);
+      if (singular_stationary()) escape();
     } else {
       if (mu >= o.dls_max_damping) {
+        // No acceptable step at any damping: stuck as surely as by the stall rule.
+        if (escape()) continue;
         status.reason = TerminationReason::kStalled;
         break;
       }
@@ -115,7 +138,8 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
       nu *= 2.0;
     }
   }
-  if (status.reason != TerminationReason::kConverged) jacobian::keep_best(chain, model, ws, best_cost, params);
+  status.escapes = escapes.used();
+  if (status.reason != TerminationReason::kConverged) escapes.restore_best(params, model.cost());
   return status;
 }
 

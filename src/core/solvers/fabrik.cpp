@@ -24,8 +24,8 @@
 //    lines 4-9). Later iterations only matter under limits or hinges.
 //  - a straight chain with the target straight ahead but closer is a fixed point (every forward-
 //    reaching point lands on the chain's own line); an iteration that changes no parameter while
-//    the goals are not met curls every joint by Progress::kKickAngle (at most Progress::kMaxKicks
-//    times) and goes on.
+//    the goals are not met counts as stuck, like the stall rule (geometric::Progress, stuck.hpp):
+//    the shared escape moves the pose and the iterations go on.
 //
 // Goal sets. FABRIK is a positional method:
 //  - position goals on any effector are supported: the tip goal (if any) anchors the forward stage,
@@ -40,10 +40,9 @@
 //    the twist about the last bone and any aim). On an intermediate effector they are rejected
 //    (kInvalidInput, the message names the goal): turning a middle joint to an orientation would
 //    move everything after it, which FABRIK's stages do not model. Use CCD or the Jacobian solvers.
-// Termination: converged on tolerance; stalled after kFabrikStallIterations iterations in a row
-// that improve the cost by less than stall_tolerance (relative to the previous one's) - a longer
-// window than CCD's, because with hinges FABRIK's cost is not monotone; otherwise the budget. The
-// best pose seen is returned.
+// Termination: converged on tolerance; stalled when stuck with no escape left (the shared stall
+// rule measures progress against the best cost, so FABRIK's non-monotone cost on hinge chains
+// needs no window of its own); otherwise the budget. The best pose seen is returned.
 #include <algorithm>
 #include <cmath>
 
@@ -55,7 +54,6 @@ namespace ikchain {
 
 namespace {
 
-constexpr int kFabrikStallIterations = 8;
 constexpr int kMaxGoals = kFabrikMaxGoals;
 
 // Weighted mean of the position goals on effector k (1..n); false when there are none.
@@ -119,7 +117,7 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
   bool tip_frame_goals = false;
   for (int g = 0; g < goals.size; ++g) tip_frame_goals = tip_frame_goals || goals[g].kind != GoalKind::kPosition;
   geometric::Tracked tracked[kMaxGoals];
-  geometric::Progress progress(chain, goals, options, ws, params, kFabrikStallIterations);
+  geometric::Progress progress(chain, goals, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;
   while (status.iterations < options.max_iterations) {
     if (status.iterations == 0 && progress.out_of_reach()) {
@@ -144,6 +142,7 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
     if (progress.stop_after_iteration(params, moved, status.reason)) break;
   }
   progress.finish(status.reason, params);
+  status.escapes = progress.escapes();
   return status;
 }
 

@@ -1,6 +1,7 @@
 // Helpers shared by the geometric solvers (two-bone, CCD, FABRIK): minimal rotations between
 // directions, turning one joint by a world-space rotation, per-joint limit projection, the
-// root-to-tip "aim each bone at a point" pass, and best-pose bookkeeping. Header-only, internal to
+// root-to-tip "aim each bone at a point" pass, and the per-iteration bookkeeping (Progress: the
+// shared stall rule and escape of stuck.hpp, the best pose). Header-only, internal to
 // src/core/solvers/ (not part of the public API).
 //
 // Every function here works on one joint at a time because the geometric solvers update joints one
@@ -16,6 +17,7 @@
 #include "core/result.hpp"
 #include "core/goal.hpp"
 #include "core/so3.hpp"
+#include "core/solvers/stuck.hpp"
 #include "core/span.hpp"
 #include "core/workspace.hpp"
 
@@ -170,7 +172,7 @@ struct PointSums {
 // bone alone is not enough, because a hinge whose bone runs along its own axis (a "twist" hinge,
 // as in the alternating z/y benchmark chain) cannot move o_{j+1} at all and is aimed only by the
 // points further on; fitting just the next one or two points left FABRIK at non-solution fixed
-// points on hinge chains (measured: 0.1% success at n = 10 vs 99% with all points).
+// points on hinge chains (docs/solvers.md, "Why these constants").
 // A bone of zero length is aimed by the first later point off the joint. Limits are applied
 // joint by joint. This is FABRIK's backward-reaching stage (Aristidou & Lasenby 2011, sec. 3,
 // Alg. 1) fused with the conversion of positions to joint parameters; with every desired point
@@ -221,24 +223,6 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
       turn_hinge(chain, j, fit.angle(), max_step_angle, params);
     }
     parent = glm::normalize(pre * joint_motion(chain, j, params));
-  }
-}
-
-// Bends every joint by `angle` (hinges about their axis, ball joints about a fixed perpendicular of
-// their bone), projected onto the limits. CCD and FABRIK use it to leave a saddle such as a straight
-// chain with the target straight ahead but closer, where neither method moves any joint.
-inline void curl(const Chain& chain, double angle, double* params) {
-  const int n = chain.joint_count();
-  for (int j = 0; j < n; ++j) {
-    if (chain.joint_type(j) == JointType::kHinge) {
-      turn_hinge(chain, j, angle, 0.0, params);
-      continue;
-    }
-    const int o = chain.dof_offset(j);
-    const glm::dvec3 bone = j + 1 < n ? chain.offset_translation(j + 1) : chain.tip_offset();
-    const glm::dvec3 axis = glm::length(bone) > 0.0 ? any_perpendicular(bone) : glm::dvec3(1, 0, 0);
-    set_ball_param(params, o, so3::log(so3::exp(ball_param(params, o)) * glm::angleAxis(angle, axis)));
-    project_joint_to_limits(chain, j, params);
   }
 }
 
@@ -428,31 +412,24 @@ struct BestPose {
   }
 };
 
-// Stall rule shared by CCD and FABRIK: an iteration that improves the cost by less than
-// stall_tolerance (relative) counts; this many in a row stop the solve.
-constexpr int kStallIterations = 3;
-
 // The bookkeeping CCD and FABRIK do around their iterations: the start pose's error, the best pose
-// seen (returned at the end), the fixed-point "kick" and the stall rule.
-//  - A fixed point (an iteration turning no parameter more than kStillAngle) with goals unmet and
-//    a reachable target is a symmetric deadlock (e.g. a straight chain pulled along itself): every
-//    joint is curled by kKickAngle (at most kMaxKicks times) and the solve goes on.
-//  - stall_iterations iterations in a row improving the cost by less than stall_tolerance
-//    (relative) stop the solve as stalled.
+// seen (returned at the end) and the shared stuck rules (stuck.hpp). Stuck: the stall rule, or a
+// fixed point (an iteration turning no parameter more than kStillAngle, e.g. a straight chain
+// pulled along itself, where neither method moves any joint); either calls the shared escape, and
+// with none left the solve stops as stalled.
 class Progress {
  public:
-  static constexpr int kMaxKicks = 2;
-  static constexpr double kKickAngle = 0.1;     // rad per joint: breaks the symmetry, small to undo
   static constexpr double kStillAngle = 1e-12;  // rad
 
   // Measures the start pose (FK into ws) and decides whether the target is a single tip position
   // goal at or beyond full reach (the solvers straighten toward it first).
   Progress(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
-           const double* params, int stall_iterations)
-      : chain_(chain), goals_(goals), options_(options), ws_(ws), stall_iterations_(stall_iterations) {
+           const double* params)
+      : chain_(chain), goals_(goals), options_(options), ws_(ws), escapes_(chain, goals, options, ws) {
     forward_kinematics(chain, params, ws);
-    previous_cost_ = measure_goals(chain, goals, ws).cost;
-    best_.init(chain, ws, params, previous_cost_);
+    cost_ = measure_goals(chain, goals, ws).cost;
+    stall_.reset(cost_);
+    escapes_.offer(params, cost_);
     const int n = chain.joint_count();
     const bool single_tip = goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
                             resolve_effector(chain, goals[0].effector) == n;
@@ -461,35 +438,29 @@ class Progress {
   }
 
   bool out_of_reach() const { return out_of_reach_; }
+  int escapes() const { return escapes_.used(); }
 
   // After an iteration that changed no parameter by more than `moved` (rad): measures the pose
-  // (FK into ws), keeps it if best, kicks params when deadlocked, and returns true when the solve
-  // stops, with `reason` set to kConverged or kStalled (left alone otherwise).
+  // (FK into ws), keeps it if best, escapes when stuck, and returns true when the solve stops, with
+  // `reason` set to kConverged, kStalled or (time budget) kMaxIterations; left alone otherwise.
   bool stop_after_iteration(double* params, double moved, TerminationReason& reason) {
     forward_kinematics(chain_, params, ws_);
     const GoalErrors err = measure_goals(chain_, goals_, ws_);
-    best_.offer(chain_, ws_, params, err.cost);
+    cost_ = err.cost;
+    escapes_.offer(params, cost_);
     if (err.within(options_)) {
       reason = TerminationReason::kConverged;
       return true;
     }
-    if (moved <= kStillAngle) {
-      if (kicks_ >= kMaxKicks || out_of_reach_) {
+    const bool stalled = stall_.stalled_after(cost_, options_.stall_tolerance);
+    if (moved <= kStillAngle || stalled) {
+      if (!escapes_.escape(params, cost_)) {
         reason = TerminationReason::kStalled;
         return true;
       }
-      ++kicks_;
-      curl(chain_, kKickAngle, params);
       forward_kinematics(chain_, params, ws_);
-      previous_cost_ = measure_goals(chain_, goals_, ws_).cost;
-      stalls_ = 0;
-      return false;
-    }
-    stalls_ = (previous_cost_ - err.cost <= options_.stall_tolerance * previous_cost_) ? stalls_ + 1 : 0;
-    previous_cost_ = err.cost;
-    if (stalls_ >= stall_iterations_) {
-      reason = TerminationReason::kStalled;
-      return true;
+      cost_ = measure_goals(chain_, goals_, ws_).cost;
+      stall_.reset(cost_);
     }
     if (ws_.deadline.spent()) {
       reason = TerminationReason::kMaxIterations;  // the time budget
@@ -501,8 +472,7 @@ class Progress {
   // A converged pose stays as it is; otherwise params (and ws's FK) go to the best pose seen.
   void finish(TerminationReason reason, double* params) const {
     if (reason == TerminationReason::kConverged) return;
-    best_.restore(chain_, ws_, params);
-    forward_kinematics(chain_, params, ws_);
+    if (escapes_.restore_best(params, cost_)) forward_kinematics(chain_, params, ws_);
   }
 
  private:
@@ -510,12 +480,10 @@ class Progress {
   Span<const Goal> goals_;
   const SolverOptions& options_;
   Workspace& ws_;
-  int stall_iterations_;
-  BestPose best_;
-  double previous_cost_ = 0.0;
+  stuck::StallRule stall_;
+  stuck::Escapes escapes_;
+  double cost_ = 0.0;  // of params as last measured
   bool out_of_reach_ = false;
-  int stalls_ = 0;
-  int kicks_ = 0;
 };
 
 }  // namespace geometric

@@ -107,7 +107,7 @@ inline double gram_rank_floor(double singular_threshold, double lambda_max) {
 inline double pinv_factor(double lambda, double floor) { return lambda > floor ? 1.0 / lambda : 0.0; }
 
 // Number of leading params that move any of the goals' effectors (joints before the farthest
-// effector); the rest are left alone by every step and by the singularity kick.
+// effector); the rest are left alone by every step and by the escapes (stuck.hpp).
 inline int active_dof_count(const Chain& chain, Span<const Goal> goals) {
   int k = 0;
   for (int i = 0; i < goals.size; ++i) k = std::max(k, resolve_effector(chain, goals[i].effector));
@@ -224,8 +224,8 @@ class SinglePositionModel {
     const Eigen::Index stride = ws_.jacobian.rows();
     const glm::dvec3* origins = ws_.joint_origins.data();
     const glm::dvec3* axes = ws_.dof_axes.data();
-    auto column = [&](int dof, const glm::dvec3& arm) {
-      const glm::dvec3 c = glm::cross(axes[dof], arm);
+    // Column `dof` = c into J, and its outer product into J J^T.
+    auto store = [&](int dof, const glm::dvec3& c) {
       double* cj = col + stride * dof;
       cj[0] = c.x;
       cj[1] = c.y;
@@ -237,20 +237,9 @@ class SinglePositionModel {
       a12 += c.y * c.z;
       a22 += c.z * c.z;
     };
+    auto column = [&](int dof, const glm::dvec3& arm) { store(dof, glm::cross(axes[dof], arm)); };
     // A slide moves the effector along its axis: column sqrt(w) * axis.
-    auto slide_column = [&](int dof) {
-      const glm::dvec3 c = axes[dof] * sqrt_weight_;
-      double* cj = col + stride * dof;
-      cj[0] = c.x;
-      cj[1] = c.y;
-      cj[2] = c.z;
-      a00 += c.x * c.x;
-      a01 += c.x * c.y;
-      a02 += c.x * c.z;
-      a11 += c.y * c.y;
-      a12 += c.y * c.z;
-      a22 += c.z * c.z;
-    };
+    auto slide_column = [&](int dof) { store(dof, axes[dof] * sqrt_weight_); };
     if (all_hinges_) {  // DOF i is joint i: no per-joint lookups
       for (int i = 0; i < effector_; ++i) column(i, (effector_position_ - origins[i]) * sqrt_weight_);
     } else {
@@ -591,59 +580,11 @@ inline void make_trial(const Chain& chain, const SolverOptions& o, const double*
   project_to_limits(chain, trial);
 }
 
-// A stationary point with error left that is not a best reach: the gradient J^T e vanishes
-// although the goals are not met, e.g. a straight chain whose target lies on its own line (ahead
-// but closer, behind the root, on the root). Every Jacobian method stands still there, so the
-// solvers "kick" the pose once: a fixed, deterministic bend of every active joint, after which
-// the gradient is generic. Not for a single tip goal beyond the chain's reach, where the straight
-// pose pointing at the target is the optimum itself.
-inline bool is_singular_stationary(double gradient_norm2, double jacobian_norm, double residual_norm) {
-  const double scale = 1e-10 * jacobian_norm * residual_norm;
-  return gradient_norm2 <= scale * scale;
-}
-
+// A single tip position goal at or beyond full reach: the pseudo-inverse clamps its target then.
 inline bool target_beyond_reach(const Chain& chain, Span<const Goal> goals) {
   return goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
          resolve_effector(chain, goals[0].effector) == chain.joint_count() &&
          glm::length(goals[0].target_position - chain.root_in_base()) >= chain.total_length();
-}
-
-// Adds the kick (radians, ~0.1-0.2 per DOF, signs alternating irregularly) to params.
-inline void kick(const Chain& chain, int active_dofs, Workspace& ws, double* params) {
-  double* step = ws.dof_vec_b.data();
-  for (int j = 0; j < chain.dof_count(); ++j)
-    step[j] = j < active_dofs ? 0.15 * std::sin(2.399963 * (j + 1)) : 0.0;  // golden angle
-  apply_step(chain, step, 0.0, params);
-  project_to_limits(chain, params);
-}
-
-// At a singular stationary point (see is_singular_stationary) kicks the pose, at most
-// `kicks_left` times per solve, and re-linearises there; remembers the pose before the first kick
-// in params_best / best_cost so the solver can return it if the kicked pose ends up worse.
-// Returns true when it kicked. Call right after model.linearize(params).
-template <class Model>
-bool kick_if_stuck(const Chain& chain, Span<const Goal> goals, Model& model, Workspace& ws, double* params,
-                   int& kicks_left, double& best_cost) {
-  if (kicks_left <= 0 || target_beyond_reach(chain, goals) ||
-      !is_singular_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm()))
-    return false;
-  --kicks_left;
-  if (model.cost() < best_cost) {
-    best_cost = model.cost();
-    std::copy(params, params + chain.dof_count(), ws.params_best.data());
-  }
-  kick(chain, model.active_dofs(), ws, params);
-  model.evaluate(params);
-  model.accept();
-  model.linearize(params);
-  return true;
-}
-
-// Leaves params at the better of the current pose and the pre-kick pose.
-template <class Model>
-void keep_best(const Chain& chain, const Model& model, const Workspace& ws, double best_cost, double* params) {
-  if (best_cost < model.cost())
-    std::copy(ws.params_best.data(), ws.params_best.data() + chain.dof_count(), params);
 }
 
 // Limit-aware steps (an active set; the one mechanism DLS and the pseudo-inverse share, with the
@@ -689,9 +630,6 @@ double limit_aware_step(const Chain& chain, Model& model, const double* params, 
   }
   return out;
 }
-
-// Relative improvements below stall_tolerance this many accepted steps in a row mean "stalled".
-constexpr int kStallCount = 3;
 
 // Testing hooks: the solvers forced onto GoalModel even for one position goal, so a test can check
 // that the fast path and the generic path agree. Same preconditions as solvers.hpp.

@@ -22,19 +22,30 @@
 // passes the check only after heavy halving, rank-reduced pseudo-inverses (smallest singular
 // directions dropped) are tried too, then the full step once more on the cost alone, and the
 // lowest cost wins (see run_pinv). Target clamping: a single tip target beyond reach is replaced
-// by the nearest reachable point (see solve_jacobian_pinv). Singular saddles: where the path ends
-// at a singular pose with the residual along the lost direction and the steps only creep, one
-// null-space step toward the rest pose changes the configuration (escape_singular_saddle).
+// by the nearest reachable point (see solve_jacobian_pinv).
+//
+// Singular saddles. Halved pseudo-inverse steps follow the Newton flow, which moves the effector
+// along the straight line to the target; when the joint path meets a singular pose on the way, it
+// stops there: a hinge folded to +-pi or a straight segment, with the residual along the one
+// direction the pose cannot move the effector in to first order (typically a target nearly behind
+// the root, the chain folded back over a twisted joint 1). The cost has a saddle there whose way
+// down needs a large move (e.g. untwisting joint 1 by ~1 rad). Truncated steps promise nothing,
+// the full step passes the residual check only at a tiny fraction of its length, and every
+// iteration gains a little more than stall_tolerance: the solve creeps to max_iterations. So
+// besides the stall rule, kStallIterations accepted steps in a row that each lower the cost by
+// less than kCreepGain of it also count as stuck; the shared escape's null-space step toward rest
+// (stuck.hpp) then changes the configuration.
 //
 // Iterations count accepted (or final failed) steps and escapes; each costs one FK per halving
-// tried. Stops: converged; "stalled" when no halving decreases the cost, or when kStallCount
-// accepted steps in a row improve the cost by less than stall_tolerance (relative), and no escape
-// is left.
+// tried. Stuck (stuck.hpp): no halving decreases the cost, the stall rule, creeping (above), or a
+// vanishing gradient with error left; each calls the shared escape, and with none left the solve
+// stops as "stalled" at the best pose seen.
 #include <algorithm>
 #include <cmath>
 
 #include "core/kinematics.hpp"
 #include "core/solvers/jacobian_common.hpp"
+#include "core/solvers/stuck.hpp"
 #include "core/solvers/solvers.hpp"
 
 namespace ikchain {
@@ -56,133 +67,14 @@ constexpr int kTruncationLevels = sizeof(kTruncation) / sizeof(kTruncation[0]);
 // A step accepted at this fraction of the full one or more is good enough: no truncation tried.
 constexpr double kGoodFraction = 1.0 / 8.0;
 
-// Singular saddles (see escape_singular_saddle). An accepted step "creeps" when it lowers the cost
-// by less than kCreepGain of it; kCreepCount creeping steps in a row are a trap. Measured on the
-// benchmark hinge chains (bench/core_bench.cpp's targets and options), n = 3 / 7 / 10, 350000
-// targets each (seeds 11-80), unreached: kCreepGain 1e-3 and 1e-2: 0 / 0 / 0, 1e-1: 1 / 0 / 0;
-// kCreepCount 2, 3 and 5: 0 / 0 / 0.
+// An accepted step "creeps" when it lowers the cost by less than this fraction of it; the shared
+// stall window (stuck::kStallIterations) of creeping steps in a row is a singular saddle (above;
+// the value: docs/solvers.md, "Why these constants").
 constexpr double kCreepGain = 1e-2;
-constexpr int kCreepCount = 3;
-// Escapes per solve. The trap attracts the pseudo-inverse's path, so the solve may fall back into
-// it after one escape; same measurement, 0 / 1 / 2 / 3 / 4 escapes: 8 / 69 / 27, 6 / 10 / 3,
-// 5 / 1 / 1, 1 / 0 / 0, 0 / 0 / 0 unreached (and 0 at n = 2, 3, 7, 10, 30 on the unseen seeds
-// 81-130).
-constexpr int kEscapes = 4;
-// The escape's pseudo-inverse drops singular values below this fraction of |J| (kTruncation[2]),
-// so the nearly singular direction the residual is stuck in counts as free (at n = 3 it is the
-// only free one). Same measurement: 1e-3 and 1e-1 also 0 / 0 / 0; pinv_singular_threshold alone
-// (0 here) 2 / 0 / 0.
-constexpr double kEscapeTruncation = 1e-2;
-// A centring step whose largest DOF turn is below this (rad) means the pose is already at rest in
-// every free direction (typically the straight rest pose itself, stuck at the start on a target
-// almost in its plane); the escape kicks instead (jacobian::kick). Without it 1 of 600000 targets
-// at n = 3 and 2 at n = 30 (seeds 11-130) end at the rest pose; 1e-9 to 0.3 all reach them.
-constexpr double kMinEscapeAngle = 1e-3;
-
-// Null-space step toward the rest pose, the pseudo-inverse's classic secondary task (Liegeois,
-// "Automatic supervisory control of the configuration and behavior of multibody mechanisms", 1977;
-// Buss 2004 sec. 4):  step = (I - J+ J) z,  z = rest - params over the active DOFs (hinge angles
-// modulo 2 pi, ball rotation vectors toward 0), J+ truncated below kEscapeTruncation |J|. J is the
-// Jacobian at params, as linearize() left it in the top m rows of ws.jacobian. To first order the
-// step does not move the goals' effectors; it changes the configuration (e.g. untwists the chain)
-// so that the direction the residual lies along becomes one J can serve again.
-// Writes the step into ws.dof_vec_b (zero beyond the active DOFs). Uses goal_square, dof_square,
-// goal_vec and dof_vec_a as scratch (the caller re-linearises afterwards); allocates nothing.
-void null_space_centering(const Chain& chain, const SolverOptions& o, int m, int active, const double* params,
-                          Workspace& ws) {
-  double* z = ws.dof_vec_b.data();
-  std::fill(z, z + chain.dof_count(), 0.0);
-  for (int i = 0; i < chain.joint_count() && chain.dof_offset(i) < active; ++i) {
-    const int d0 = chain.dof_offset(i);
-    if (chain.joint_type(i) == JointType::kPrismatic) {
-      z[d0] = -params[d0];
-    } else if (chain.joint_type(i) == JointType::kHinge) {
-      z[d0] = -std::remainder(params[d0], 2.0 * so3::kPi);
-    } else {
-      for (int d = d0; d < d0 + 3; ++d) z[d] = -params[d];
-    }
-  }
-  const auto J = ws.jacobian.topLeftCorner(m, active);
-  Eigen::Map<Eigen::VectorXd> zv(z, active);
-  // Same two forms as the models' pseudo-inverse: the Gram matrix of the smaller side.
-  if (m < active) {  // z -= J^T V diag(1/lambda) V^T J z   (J J^T = V diag(lambda) V^T)
-    auto A = ws.goal_square.topLeftCorner(m, m);
-    auto V = ws.dof_square.topLeftCorner(m, m);
-    A.noalias() = J * J.transpose();
-    const double tr = A.trace();
-    const double floor = jacobian::gram_rank_floor(
-        std::max(o.pinv_singular_threshold, kEscapeTruncation * std::sqrt(std::max(tr, 0.0))), tr);
-    jacobian::jacobi_eigen(A, V, m);
-    auto y = ws.goal_vec.head(m);
-    auto t = ws.dof_vec_a.head(m);
-    y.noalias() = J * zv;
-    t.noalias() = V.transpose() * y;
-    for (int i = 0; i < m; ++i) t[i] = A(i, i) > floor ? t[i] / A(i, i) : 0.0;
-    y.noalias() = V * t;
-    zv.noalias() -= J.transpose() * y;
-  } else {  // z -= W W^T z over the kept eigenvectors W of J^T J
-    auto A = ws.dof_square.topLeftCorner(active, active);
-    auto W = ws.goal_square.topLeftCorner(active, active);
-    A.noalias() = J.transpose() * J;
-    const double tr = A.trace();
-    const double floor = jacobian::gram_rank_floor(
-        std::max(o.pinv_singular_threshold, kEscapeTruncation * std::sqrt(std::max(tr, 0.0))), tr);
-    jacobian::jacobi_eigen(A, W, active);
-    auto t = ws.dof_vec_a.head(active);
-    t.noalias() = W.transpose() * zv;
-    for (int i = 0; i < active; ++i) t[i] = A(i, i) > floor ? t[i] : 0.0;
-    zv.noalias() -= W * t;
-  }
-}
-
-// Escape from a singular saddle. Halved pseudo-inverse steps follow the Newton flow, which moves the
-// effector along the straight line to the target; when the joint path meets a singular pose on
-// the way, it stops there: a hinge folded to +-pi or a straight segment, with the residual along
-// the one direction the pose cannot move the effector in to first order. Typical on these chains:
-// a target nearly behind the root, the chain folded back at joint 2 over a twisted joint 1, its
-// tip short of the target. The cost has a saddle there whose way down needs a large move (e.g.
-// untwisting joint 1 by ~1 rad, after which the solve converges in 5 iterations). Measured at the
-// 43 poses the old solver ended at (seeds 11-13): sigma_min / sigma_max 1e-6..4e-2, and in most
-// of them over 99 % of the residual along the smallest singular direction. Truncated steps then
-// promise nothing, the full step passes the residual check only at ~1e-6 of its length, and every
-// iteration gains a little more than stall_tolerance: the solve creeps to max_iterations (most of
-// the 0.1-0.2 % of targets the old solver missed at n = 3 / 7 / 10). At such a trap, with escapes
-// left and a target within reach (beyond it, the straight best reach is a singular optimum, not a
-// trap), this takes one null-space step toward the rest pose (null_space_centering); it remembers
-// the pose in params_best / best_cost first, like the kick, so the solver can return that pose if
-// the escape ends worse. Returns true when it moved the pose.
-template <class Model>
-bool escape_singular_saddle(const Chain& chain, Span<const Goal> goals, const SolverOptions& o, Workspace& ws,
-                            Model& model, double* params, int& escapes_left, double& best_cost) {
-  if (escapes_left <= 0 || jacobian::target_beyond_reach(chain, goals)) return false;
-  --escapes_left;
-  if (model.cost() < best_cost) {
-    best_cost = model.cost();
-    std::copy(params, params + chain.dof_count(), ws.params_best.data());
-  }
-  // J at params: the last evaluate() may have been a rejected trial (linearize() needs the pose's FK).
-  model.evaluate(params);
-  model.accept();
-  model.linearize(params);
-  const int active = model.active_dofs();
-  null_space_centering(chain, o, 3 * goals.size, active, params, ws);
-  double largest = 0.0;
-  for (int j = 0; j < active; ++j) largest = std::max(largest, std::abs(ws.dof_vec_b[j]));
-  if (largest > kMinEscapeAngle) {
-    apply_step(chain, ws.dof_vec_b.data(), 0.0, params);
-    project_to_limits(chain, params);
-  } else {
-    jacobian::kick(chain, active, ws, params);
-  }
-  model.evaluate(params);
-  model.accept();
-  model.linearize(params);
-  return true;
-}
 
 template <class Model>
 SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOptions& o, Workspace& ws,
-                      Model& model, double* params) {
+                      Model& model, double* params, bool target_clamped) {
   SolverStatus status;
   const int n = chain.dof_count();
   const int active = model.active_dofs();
@@ -196,17 +88,35 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     return status;
   }
   model.linearize(params);
-  int kicks_left = 2;
-  int escapes_left = kEscapes;
-  double best_cost = INFINITY;
-  jacobian::kick_if_stuck(chain, goals, model, ws, params, kicks_left, best_cost);
-
   double fraction = 1.0;  // the last accepted de / e
-  int small_improvements = 0;
+  stuck::StallRule stall(model.cost());
   int creeping = 0;
+  stuck::Escapes escapes(chain, goals, o, ws);
+  // Clamped, the target is the best reach of a goal beyond it: being stuck there is no trap.
+  if (target_clamped) escapes.disable();
+  // Stuck at params: escape and start again there (true), or no escape left (false).
+  auto escape = [&]() {
+    if (!escapes.escape(params, model.cost())) return false;
+    model.evaluate(params);
+    model.accept();
+    model.linearize(params);
+    fraction = 1.0;
+    creeping = 0;
+    stall.reset(model.cost());
+    return true;
+  };
+  auto singular_stationary = [&]() {
+    return stuck::is_singular_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm());
+  };
+  if (singular_stationary()) escape();
+
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
     if (it > 1 && ws.deadline.spent()) break;  // the time budget: kMaxIterations
+    if (model.converged(o)) {  // an escape landed there
+      status.reason = TerminationReason::kConverged;
+      break;
+    }
     status.iterations = it;
     const double cost = model.cost();
     // The full pseudo-inverse first; when no halving of it is accepted, the same with the smallest
@@ -223,10 +133,8 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     // (targets within ~1e-4 L of the workspace boundary): the last 1e-4 of distance needs joint
     // turns ~1/sigma_min times larger, whose second-order motion outgrows the residual, so the
     // check passes only at ~1/16 of the step although longer steps lower the cost more, and the
-    // solve converges linearly, ~6 % of the distance per iteration, past max_iterations. Measured
-    // on the benchmark chains (seeds 11-80, with the escapes): taking the lenient step only when nothing passes, and
-    // only at the last halving, misses 76 of 350000 targets at n = 3 (this rule: 0) and needs a
-    // median of 10 iterations at n = 3 / 7 / 10 (this rule: 9).
+    // solve converges linearly, a few per cent of the distance per iteration, past max_iterations
+    // (the rule's measurement: docs/solvers.md, "Why these constants").
     // Joints on a limit the full step pushes outward leave J for this iteration, at every level
     // (the active set, jacobian::limit_aware_step).
     jacobian::limit_aware_step(chain, model, params, ws.step.data(), [&](double* step) {
@@ -270,12 +178,8 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
       if (best_s >= kGoodFraction) break;
     }
     const bool accepted = best_s > 0.0;
-    if (!accepted) {
-      if (escape_singular_saddle(chain, goals, o, ws, model, params, escapes_left, best_cost)) {
-        fraction = 1.0;
-        creeping = small_improvements = 0;
-        continue;
-      }
+    if (!accepted) {  // no halving decreases the cost: stuck
+      if (escape()) continue;
       status.reason = TerminationReason::kStalled;
       break;
     }
@@ -294,23 +198,18 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
       break;
     }
     const double gain = cost - model.cost();
-    small_improvements = gain <= o.stall_tolerance * cost ? small_improvements + 1 : 0;
     creeping = gain <= kCreepGain * cost ? creeping + 1 : 0;
-    const bool stalled = small_improvements >= jacobian::kStallCount;
-    if ((stalled || creeping >= kCreepCount) &&
-        escape_singular_saddle(chain, goals, o, ws, model, params, escapes_left, best_cost)) {
-      fraction = 1.0;
-      creeping = small_improvements = 0;
-      continue;
-    }
-    if (stalled) {
+    const bool stalled = stall.stalled_after(model.cost(), o.stall_tolerance);
+    if ((stalled || creeping >= stuck::kStallIterations) && escape()) continue;
+    if (stalled) {  // creeping alone, with no escape left, goes on: it is still progress
       status.reason = TerminationReason::kStalled;
       break;
     }
     model.linearize(params);
-    jacobian::kick_if_stuck(chain, goals, model, ws, params, kicks_left, best_cost);
+    if (singular_stationary()) escape();
   }
-  if (status.reason != TerminationReason::kConverged) jacobian::keep_best(chain, model, ws, best_cost, params);
+  status.escapes = escapes.used();
+  if (status.reason != TerminationReason::kConverged) escapes.restore_best(params, model.cost());
   return status;
 }
 
@@ -329,13 +228,14 @@ SolverStatus solve_jacobian_pinv(const Chain& chain, Span<const Goal> goals, con
     // one is solved 100x tighter than asked.
     Goal goal = goals[0];
     SolverOptions o = options;
-    if (jacobian::target_beyond_reach(chain, goals)) {
+    const bool clamped = jacobian::target_beyond_reach(chain, goals);
+    if (clamped) {
       const glm::dvec3 root = chain.root_in_base();
       goal.target_position = root + glm::normalize(goal.target_position - root) * chain.total_length();
       o.position_tolerance *= 1e-2;
     }
     jacobian::SinglePositionModel model(chain, goal, ws);
-    return run_pinv(chain, Span<const Goal>(&goal, 1), o, ws, model, params);
+    return run_pinv(chain, Span<const Goal>(&goal, 1), o, ws, model, params, clamped);
   }
   return jacobian::solve_jacobian_pinv_generic(chain, goals, options, ws, params);
 }
@@ -344,7 +244,7 @@ namespace jacobian {
 SolverStatus solve_jacobian_pinv_generic(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                                          Workspace& ws, double* params) {
   GoalModel model(chain, goals, ws);
-  return run_pinv(chain, goals, options, ws, model, params);
+  return run_pinv(chain, goals, options, ws, model, params, false);
 }
 }  // namespace jacobian
 

@@ -29,9 +29,10 @@ namespace ikchain {
 struct SolverStatus {
   TerminationReason reason = TerminationReason::kStalled;
   int iterations = 0;
+  int escapes = 0;  // stuck -> escape moves made (solvers/stuck.hpp), at most stuck::kMaxEscapes
   Message message;  // for kInvalidInput
   // Errors the solver measured with its own forward kinematics, so solve() need not run it again
-  // (for a 10-joint DLS solve the dispatcher's two FK passes were an eighth of the time).
+  // (on short chains the dispatcher's own FK passes are a noticeable part of a solve).
   // `start`: the pose it was given; required from solvers with solver_measures_start().
   // `final`: the params it returns, exactly; optional (solve() measures when final_measured is false).
   GoalErrors start, final;

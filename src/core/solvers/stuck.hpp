@@ -1,0 +1,363 @@
+// What every iterative solver (CCD, FABRIK, the pseudo-inverse, DLS, BFGS) does when it stops
+// making progress, in one place:
+//  - StallRule: the one stall rule. An iteration "counts" when it lowers the best cost seen by
+//    less than stall_tolerance (relative to that best); kStallIterations such iterations in a row
+//    mean the solve is stuck. Measured against the best cost rather than the previous iteration's,
+//    so a method whose cost is not monotone (FABRIK on hinge chains) needs no longer window.
+//  - Escapes: the one stuck -> escape move, and the best pose seen (so an escape that ends worse
+//    never costs the caller anything). A solver calls escape() when the stall rule fires, or on a
+//    condition of its own that means the same (no acceptable step at all, a vanishing gradient, a
+//    sweep that moves nothing); escape() refuses when the budget (kMaxEscapes per solve) is spent
+//    or the goals are provably out of reach (then the stuck pose is the best reach), and the
+//    solver stops as kStalled.
+// The move stays in the null space of J, so to first order it keeps the effectors where they are
+// and changes only the configuration: first a step toward the rest pose (the pseudo-inverse's
+// classic secondary task: Liegeois 1977; Buss 2004, sec. 4), which e.g. untwists a chain caught at
+// a singular saddle. Where that does not leave the stationary point (at the rest pose itself, or
+// with the limits in the way), a fixed, deterministic direction (the kick) projected the same way,
+// with the sign that pushes no hinge resting on a bound outward: a straight limb whose knee sits
+// on its limit then folds the way the limit allows, its tip pulled toward the root at second
+// order. Failing both, the kick itself. Hinges on a bound that a step would push out are left out
+// of its projection (the active set of jacobian::limit_aware_step). Deterministic: the same solve
+// escapes the same way. Restarts (SolverOptions::max_restarts, solve.cpp) are the outer layer of
+// the same idea: an escape is a local perturbation inside one solve, a restart a new seeded start
+// pose across solves (docs/solvers.md, "When a solve is stuck").
+// Allocates nothing: every buffer is the workspace's.
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "core/chain.hpp"
+#include "core/goal.hpp"
+#include "core/kinematics.hpp"
+#include "core/options.hpp"
+#include "core/so3.hpp"
+#include "core/solvers/jacobian_common.hpp"
+#include "core/span.hpp"
+#include "core/workspace.hpp"
+
+namespace ikchain {
+namespace stuck {
+
+// Iterations in a row without a relative improvement of stall_tolerance that make a solve stuck.
+constexpr int kStallIterations = 3;
+// Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape).
+constexpr int kMaxEscapes = 4;
+// The null-space step's pseudo-inverse drops singular values below this fraction of |J|, so the
+// nearly singular direction the residual is stuck in counts as free.
+constexpr double kEscapeTruncation = 1e-2;
+// A null-space step turning no DOF more than this (rad) means the pose is already at rest in every
+// free direction: the kick is used instead.
+constexpr double kMinEscapeAngle = 1e-3;
+// The kick's amplitude per DOF (rad; metres for a slide): small enough to undo in a step or two.
+constexpr double kKickAmplitude = 0.15;
+
+// ------------------------------------------------------------------------------------------------
+// Reach bounds: when goals provably cannot be met (then a stuck pose is a best reach, not a trap).
+
+// Largest distance effector k (1..n) can be from the root joint's origin o_0: the bones before it.
+inline double reach_of(const Chain& chain, int k) {
+  double reach = 0.0;
+  for (int i = 0; i < k; ++i) reach += chain.bone_length(i);
+  return reach;
+}
+
+// Smallest distance effector k can be from o_0 (triangle inequality): the longest bone before it
+// minus all the others, or 0.
+inline double inner_reach_of(const Chain& chain, int k) {
+  if (chain.first_prismatic() >= 0) return 0.0;  // bone lengths are upper bounds then
+  double longest = 0.0;
+  for (int i = 0; i < k; ++i) longest = std::max(longest, chain.bone_length(i));
+  return std::max(0.0, 2.0 * longest - reach_of(chain, k));
+}
+
+// How far a position goal's target is outside its effector's reach shell around o_0 (<= 0 inside).
+inline double outside_reach(const Chain& chain, const Goal& g) {
+  const int k = resolve_effector(chain, g.effector);
+  const double dist = glm::length(g.target_position - chain.root_in_base());
+  return std::max(dist - reach_of(chain, k), inner_reach_of(chain, k) - dist);
+}
+
+// True when the goals provably cannot all be met, by the chain's workspace bounds: a position goal
+// outside its effector's reach shell around o_0 (farther than the bones before it, or nearer than
+// the longest of them minus the others), or two position goals farther apart than the bones
+// between their effectors. (Orientation conflicts and limits are not bounded here: a solve they
+// stop is "stalled", which promises nothing about reachability.)
+inline bool provably_out_of_reach(const Chain& chain, Span<const Goal> goals, double tolerance) {
+  for (int a = 0; a < goals.size; ++a) {
+    if (goals[a].kind != GoalKind::kPosition) continue;
+    const int ka = resolve_effector(chain, goals[a].effector);
+    if (outside_reach(chain, goals[a]) > tolerance) return true;
+    for (int b = a + 1; b < goals.size; ++b) {
+      if (goals[b].kind != GoalKind::kPosition) continue;
+      const int kb = resolve_effector(chain, goals[b].effector);
+      const double between = std::abs(reach_of(chain, kb) - reach_of(chain, ka));
+      if (glm::length(goals[b].target_position - goals[a].target_position) > between + tolerance) return true;
+    }
+  }
+  return false;
+}
+
+// A stationary point with error left: the gradient J^T e vanishes (relative to |J| |e|) although
+// the goals are not met, e.g. a straight chain whose target lies on its own line. Every gradient-
+// based step stands still there.
+inline bool is_singular_stationary(double gradient_norm2, double jacobian_norm, double residual_norm) {
+  const double scale = 1e-10 * jacobian_norm * residual_norm;
+  return gradient_norm2 <= scale * scale;
+}
+
+// ------------------------------------------------------------------------------------------------
+// The stall rule.
+class StallRule {
+ public:
+  explicit StallRule(double start_cost = INFINITY) { reset(start_cost); }
+  // A new start (after an escape): the best so far is `cost`, the count starts again.
+  void reset(double cost) {
+    best_ = cost;
+    small_ = 0;
+  }
+  // After an iteration that ended at `cost`: true when kStallIterations iterations in a row lowered
+  // the best cost by no more than `tolerance` (stall_tolerance) times it. NaN never improves.
+  bool stalled_after(double cost, double tolerance) {
+    const bool improved = std::isfinite(best_) ? best_ - cost > tolerance * best_ : cost < best_;
+    if (cost < best_) best_ = cost;
+    small_ = improved ? 0 : small_ + 1;
+    return small_ >= kStallIterations;
+  }
+
+ private:
+  double best_ = INFINITY;
+  int small_ = 0;
+};
+
+// ------------------------------------------------------------------------------------------------
+// The escape, and the best pose seen (in ws.params_best).
+class Escapes {
+ public:
+  Escapes(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws)
+      : chain_(chain), goals_(goals), options_(options), ws_(ws) {}
+
+  // The caller knows the goals are out of reach (the pseudo-inverse after clamping its target):
+  // no escape.
+  void disable() { state_ = kOutOfReach; }
+
+  int used() const { return used_; }
+
+  // Keeps params as the best pose when `cost` beats every pose offered before.
+  void offer(const double* params, double cost) {
+    if (!(cost < best_cost_)) return;
+    best_cost_ = cost;
+    std::copy(params, params + chain_.dof_count(), ws_.params_best.data());
+  }
+  // Leaves params at the best pose offered when it is better than `cost` (params' own cost).
+  // Returns true when it changed params.
+  bool restore_best(double* params, double cost) const {
+    if (!(best_cost_ < cost)) return false;
+    std::copy(ws_.params_best.data(), ws_.params_best.data() + chain_.dof_count(), params);
+    return true;
+  }
+
+  // The solve at params (of cost `cost`) is stuck. Offers params as the best pose, then moves them
+  // within the limits (see the file comment) and returns true - or returns false, params
+  // untouched, when no escape is left or the goals are provably out of reach. Leaves ws's
+  // kinematics stale: the caller evaluates the new pose.
+  bool escape(double* params, double cost) {
+    offer(params, cost);
+    if (state_ == kUnknown)
+      state_ = provably_out_of_reach(chain_, goals_, options_.position_tolerance) ? kOutOfReach : kReachable;
+    if (state_ == kOutOfReach || used_ >= kMaxEscapes) return false;
+    ++used_;
+    const int n = chain_.dof_count();
+    const int active = jacobian::active_dof_count(chain_, goals_);
+    double* before = ws_.params_trial.data();
+    double* step = ws_.dof_vec_b.data();
+    std::copy(params, params + n, before);
+    // 1. Toward the rest pose, in the null space of J, the hinges on a bound it would push out
+    //    left out - kept when it moves the pose off the stationary point.
+    linearize(params);
+    project_within_limits(active, params, step, [&](double* v) { toward_rest(active, params, v); });
+    if (largest(active, step) > kMinEscapeAngle && move(step, before, params)) return true;
+    // 2. The fixed kick direction in the null space of J, with the sign that pushes no hinge on a
+    //    bound out (the null space is symmetric); failing both signs, without the hinges that it
+    //    pushes out; failing that (no null space left), the kick itself.
+    std::copy(before, before + n, params);
+    linearize(params);
+    kick_direction(active, params, step);
+    project_onto_null_space(active, step);
+    if (pushes_out(active, params, step)) scale(active, -1.0, step);
+    if (pushes_out(active, params, step)) {
+      linearize(params);
+      project_within_limits(active, params, step, [&](double* v) { kick_direction(active, params, v); });
+    }
+    const double size = largest(active, step);
+    if (size > 1e-9) {
+      scale(active, kKickAmplitude / size, step);
+    } else {
+      kick_direction(active, params, step);
+    }
+    // 3. Where that leaves a stationary point, the kick on top.
+    if (!move(step, before, params)) {
+      kick_direction(active, params, step);
+      apply_step(chain_, step, 0.0, params);
+      project_to_limits(chain_, params);
+    }
+    return true;
+  }
+
+ private:
+  enum State { kUnknown, kReachable, kOutOfReach };
+
+  // J (top rows of ws.jacobian) and the weighted residual (ws.residual) at params.
+  void linearize(const double* params) {
+    const int m = 3 * goals_.size;
+    forward_kinematics(chain_, params, ws_);
+    compute_dof_axes(chain_, params, ws_);
+    evaluate_goals(chain_, goals_, ws_, ws_.residual.head(m));
+    auto J = ws_.jacobian.topRows(m);
+    compute_jacobian(chain_, goals_, ws_, J);
+  }
+
+  bool still_stationary(const double* params) {
+    const int m = 3 * goals_.size;
+    linearize(params);
+    const auto J = ws_.jacobian.topRows(m);
+    const auto e = ws_.residual.head(m);
+    ws_.gradient.noalias() = J.transpose() * e;
+    return is_singular_stationary(ws_.gradient.squaredNorm(), J.norm(), e.norm());
+  }
+
+  // params = before + step, projected onto the limits; true when that turned some DOF by more than
+  // kMinEscapeAngle and the new pose is no stationary point.
+  bool move(const double* step, const double* before, double* params) {
+    const int n = chain_.dof_count();
+    std::copy(before, before + n, params);
+    apply_step(chain_, step, 0.0, params);
+    project_to_limits(chain_, params);
+    double moved = 0.0;
+    for (int j = 0; j < n; ++j) moved = std::max(moved, std::abs(params[j] - before[j]));
+    return moved > kMinEscapeAngle && !still_stationary(params);
+  }
+
+  // v <- the null-space projection of the direction `fill` writes, with the active set of
+  // limit_aware_step: a hinge on a bound that the projected step pushes out leaves the problem (its
+  // entry 0, its column out of J) and the projection is solved again, while that adds any (at most
+  // jacobian::kMaxFreezePasses times). Needs J from linearize(); zeroes the frozen columns. Marks
+  // the frozen DOFs in ws.gradient.
+  template <class Fill>
+  void project_within_limits(int active, const double* params, double* v, Fill&& fill) {
+    const int m = 3 * goals_.size;
+    double* frozen = ws_.gradient.data();
+    std::fill(frozen, frozen + active, 0.0);
+    for (int pass = 0; pass <= jacobian::kMaxFreezePasses; ++pass) {
+      fill(v);
+      for (int j = 0; j < active; ++j)
+        if (frozen[j] != 0.0) v[j] = 0.0;
+      project_onto_null_space(active, v);
+      bool froze = false;
+      for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+        const int o = chain_.dof_offset(i);
+        if (frozen[o] != 0.0 || !hinge_blocked(chain_, i, params, v[o])) continue;
+        frozen[o] = 1.0;
+        ws_.jacobian.col(o).head(m).setZero();
+        froze = true;
+      }
+      if (!froze) return;
+    }
+  }
+
+  static double largest(int active, const double* v) {
+    double m = 0.0;
+    for (int j = 0; j < active; ++j) m = std::max(m, std::abs(v[j]));
+    return m;
+  }
+  static void scale(int active, double f, double* v) {
+    for (int j = 0; j < active; ++j) v[j] *= f;
+  }
+
+  // z = rest - params over the active DOFs (hinge angles modulo 2 pi, ball rotation vectors toward
+  // 0, slides toward 0), zero elsewhere.
+  void toward_rest(int active, const double* params, double* z) const {
+    std::fill(z, z + chain_.dof_count(), 0.0);
+    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+      const int d0 = chain_.dof_offset(i);
+      if (chain_.joint_type(i) == JointType::kPrismatic) {
+        z[d0] = -params[d0];
+      } else if (chain_.joint_type(i) == JointType::kHinge) {
+        z[d0] = -std::remainder(params[d0], 2.0 * so3::kPi);
+      } else {
+        for (int d = d0; d < d0 + 3; ++d) z[d] = -params[d];
+      }
+    }
+  }
+
+  // The kick: DOF j turns by kKickAmplitude * sin(golden angle * (j + 1) + escape number) (signs
+  // alternating irregularly, a different pattern per escape), a hinge on a bound toward the inside
+  // of its range; zero beyond the active DOFs.
+  void kick_direction(int active, const double* params, double* v) const {
+    for (int j = 0; j < chain_.dof_count(); ++j)
+      v[j] = j < active ? kKickAmplitude * std::sin(2.399963 * (j + 1) + (used_ - 1)) : 0.0;
+    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+      const int o = chain_.dof_offset(i);
+      if (hinge_blocked(chain_, i, params, v[o])) v[o] = -v[o];
+    }
+  }
+
+  // True when v pushes a hinge (or slide) resting on a bound outward.
+  bool pushes_out(int active, const double* params, const double* v) const {
+    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i)
+      if (hinge_blocked(chain_, i, params, v[chain_.dof_offset(i)])) return true;
+    return false;
+  }
+
+  // v <- (I - J+ J) v over the active DOFs, J+ truncated below kEscapeTruncation |J| (so a nearly
+  // singular direction the residual is stuck in counts as free), J from linearize(). Uses
+  // goal_square, dof_square, goal_vec and dof_vec_a as scratch.
+  void project_onto_null_space(int active, double* v) {
+    const int m = 3 * goals_.size;
+    const auto J = ws_.jacobian.topLeftCorner(m, active);
+    Eigen::Map<Eigen::VectorXd> zv(v, active);
+    // The Gram matrix of the smaller side, as the Jacobian models' pseudo-inverse.
+    if (m < active) {  // z -= J^T V diag(1/lambda) V^T J z   (J J^T = V diag(lambda) V^T)
+      auto A = ws_.goal_square.topLeftCorner(m, m);
+      auto V = ws_.dof_square.topLeftCorner(m, m);
+      A.noalias() = J * J.transpose();
+      const double floor = truncation_floor(A.trace());
+      jacobian::jacobi_eigen(A, V, m);
+      auto y = ws_.goal_vec.head(m);
+      auto t = ws_.dof_vec_a.head(m);
+      y.noalias() = J * zv;
+      t.noalias() = V.transpose() * y;
+      for (int i = 0; i < m; ++i) t[i] = A(i, i) > floor ? t[i] / A(i, i) : 0.0;
+      y.noalias() = V * t;
+      zv.noalias() -= J.transpose() * y;
+    } else {  // z -= W W^T z over the kept eigenvectors W of J^T J
+      auto A = ws_.dof_square.topLeftCorner(active, active);
+      auto W = ws_.goal_square.topLeftCorner(active, active);
+      A.noalias() = J.transpose() * J;
+      const double floor = truncation_floor(A.trace());
+      jacobian::jacobi_eigen(A, W, active);
+      auto t = ws_.dof_vec_a.head(active);
+      t.noalias() = W.transpose() * zv;
+      for (int i = 0; i < active; ++i) t[i] = A(i, i) > floor ? t[i] : 0.0;
+      zv.noalias() -= W * t;
+    }
+  }
+
+  double truncation_floor(double trace) const {
+    return jacobian::gram_rank_floor(
+        std::max(options_.pinv_singular_threshold, kEscapeTruncation * std::sqrt(std::max(trace, 0.0))), trace);
+  }
+
+  const Chain& chain_;
+  Span<const Goal> goals_;
+  const SolverOptions& options_;
+  Workspace& ws_;
+  double best_cost_ = INFINITY;
+  int used_ = 0;
+  State state_ = kUnknown;
+};
+
+}  // namespace stuck
+}  // namespace ikchain

@@ -1,0 +1,267 @@
+// The one stall rule and the one stuck -> escape mechanism every iterative solver shares
+// (src/core/solvers/stuck.hpp): the rule's counting, the escape's best-pose promise, its budget
+// and determinism, and the straight limb with a hinge on its limit that every solver must leave.
+#include <vector>
+
+#include "core/solvers/stuck.hpp"
+#include "solver_test_util.hpp"
+
+namespace ikchain {
+namespace {
+
+const SolverKind kIterativeSolvers[] = {SolverKind::kCCD, SolverKind::kJacobianPinv, SolverKind::kDLS,
+                                        SolverKind::kBFGS, SolverKind::kFABRIK};
+
+// Iterations count when they lower the best cost by no more than the tolerance (relative to that
+// best); kStallIterations of them in a row are a stall. A worse iteration counts too, and one that
+// beats the best resets the count, so a non-monotone method is judged by the best it reached.
+TEST(Stuck, StallRuleCountsIterationsWithoutProgressOnTheBest) {
+  ASSERT_EQ(stuck::kStallIterations, 3);
+  stuck::StallRule rule(1.0);
+  EXPECT_FALSE(rule.stalled_after(1.0, 1e-10));        // 1: no change
+  EXPECT_FALSE(rule.stalled_after(1.0 - 1e-11, 1e-10));  // 2: below the tolerance
+  EXPECT_FALSE(rule.stalled_after(0.5, 1e-10));        // progress: count 0, best 0.5
+  EXPECT_FALSE(rule.stalled_after(0.6, 1e-10));        // 1: worse than the best
+  EXPECT_FALSE(rule.stalled_after(0.55, 1e-10));       // 2: better than the last, not than the best
+  EXPECT_TRUE(rule.stalled_after(0.52, 1e-10));        // 3: stalled
+  rule.reset(2.0);                                     // an escape: a new start
+  EXPECT_FALSE(rule.stalled_after(2.0, 1e-10));
+  EXPECT_FALSE(rule.stalled_after(NAN, 1e-10));        // NaN never improves
+  EXPECT_TRUE(rule.stalled_after(2.0, 1e-10));
+  // Tolerance 0: any decrease is progress.
+  stuck::StallRule strict(1.0);
+  for (int i = 1; i <= 10; ++i) EXPECT_FALSE(strict.stalled_after(1.0 - 1e-15 * i, 0.0));
+}
+
+// The escape keeps the best pose offered (the pose it leaves included) and gives it back only when
+// it beats the pose the solve ends at; it moves the pose, within the limits, at most kMaxEscapes
+// times, and never for goals that are provably out of reach.
+TEST(Stuck, EscapeKeepsTheBestPoseAndHonoursItsBudget) {
+  ChainBuilder b;
+  for (int i = 0; i < 3; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = glm::dvec3(0, 0, 1);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    if (i > 0) {
+      j.limits.has_hinge_limit = true;
+      j.limits.hinge_min = 0.0;
+      j.limits.hinge_max = 2.6;
+    }
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain c;
+  ASSERT_TRUE(b.build(c).empty());
+  Workspace ws(c, 1);
+  SolverOptions o;
+  const std::vector<Goal> goals = {Goal::position(glm::dvec3(0, 2, 0))};
+  stuck::Escapes escapes(c, Span<const Goal>(goals), o, ws);
+  Eigen::VectorXd straight = Eigen::VectorXd::Zero(3);
+  Eigen::VectorXd p = straight;
+  for (int k = 1; k <= stuck::kMaxEscapes; ++k) {
+    ASSERT_TRUE(escapes.escape(p.data(), 0.5)) << k;  // 0.5: the straight pose's cost (tip 1 away)
+    EXPECT_EQ(escapes.used(), k);
+    EXPECT_TRUE(within_limits(c, p.data(), 0.0)) << k;
+    EXPECT_GT((p - straight).cwiseAbs().maxCoeff(), stuck::kMinEscapeAngle) << k;
+    // The limited hinges were kicked into their range, not clipped back onto the bound.
+    EXPECT_GT(p[1], 0.0) << k;
+    EXPECT_GT(p[2], 0.0) << k;
+  }
+  const Eigen::VectorXd last = p;
+  EXPECT_FALSE(escapes.escape(p.data(), 0.5));  // budget spent: params untouched
+  EXPECT_EQ(p, last);
+  // A worse end gives the best pose back; a better one is kept.
+  EXPECT_FALSE(escapes.restore_best(p.data(), 0.25));
+  EXPECT_EQ(p, last);
+  EXPECT_TRUE(escapes.restore_best(p.data(), 0.75));
+  EXPECT_EQ(p, straight);
+
+  // Beyond the chain's reach the stuck pose is the best reach: no escape.
+  const std::vector<Goal> far = {Goal::position(glm::dvec3(0, 5, 0))};
+  stuck::Escapes none(c, Span<const Goal>(far), o, ws);
+  p = straight;
+  EXPECT_FALSE(none.escape(p.data(), 2.0));
+  EXPECT_EQ(none.used(), 0);
+  EXPECT_EQ(p, straight);
+}
+
+// A straight limb whose hinges start exactly on their limit 0 (range [0, 150 deg]) and a target on
+// its own line, closer than full reach: a stationary point (J^T e = 0) that the limits also block
+// on one side. Without restarts, every iterative solver escapes it and converges, with the limits
+// respected, reporting its escapes, allocating nothing.
+TEST(Stuck, StraightLimbWithHingesOnTheirLimitIsLeftByEverySolver) {
+  constexpr double kMax = 150.0 * 3.14159265358979323846 / 180.0;
+  for (int bones : {2, 3}) {
+    ChainBuilder b;
+    for (int i = 0; i < bones; ++i) {
+      JointDesc j;
+      j.type = JointType::kHinge;
+      j.hinge_axis = glm::dvec3(0, 0, 1);
+      j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+      if (i > 0) {
+        j.limits.has_hinge_limit = true;
+        j.limits.hinge_min = 0.0;
+        j.limits.hinge_max = kMax;
+      }
+      b.add_joint(j);
+    }
+    b.set_tip_offset(glm::dvec3(0, 1, 0));
+    Chain c;
+    ASSERT_TRUE(b.build(c).empty());
+    Workspace ws(c, 1);
+    for (double along : {0.6, 0.9}) {
+      const glm::dvec3 target(0, along * bones, 0);
+      for (SolverKind kind : kIterativeSolvers) {
+        SolverOptions o = test::sweep_options(c, 500);
+        o.warm_start = false;
+        ASSERT_EQ(o.max_restarts, 0);
+        Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+        const std::vector<Goal> goals = {Goal::position(target)};
+        const std::size_t before = test::allocation_count();
+        const SolveResult r = test::run(kind, c, goals, o, ws, p);
+        const std::size_t allocations = test::allocation_count() - before;
+        const std::string what = std::string(to_string(kind)) + " bones " + std::to_string(bones) + " at " +
+                                 std::to_string(along);
+        EXPECT_EQ(r.reason, TerminationReason::kConverged) << what;
+        EXPECT_LE(glm::length(test::tip_of(c, p) - target), o.position_tolerance) << what;
+        EXPECT_TRUE(within_limits(c, p.data(), 0.0)) << what;
+        // A stationary point for the gradient methods; CCD's and FABRIK's joint-by-joint updates
+        // leave the line of the 3-bone limb by themselves, so only the 2-bone one stops them.
+        if (bones == 2 || (kind != SolverKind::kCCD && kind != SolverKind::kFABRIK)) {
+          EXPECT_GE(r.escapes, 1) << what;
+        }
+        EXPECT_LE(r.escapes, stuck::kMaxEscapes) << what;
+        EXPECT_EQ(r.restarts, 0) << what;
+        EXPECT_EQ(allocations, 0u) << what;  // the escape works in the workspace
+      }
+    }
+  }
+}
+
+// The leg of tests/godot/tests/test_features.gd's knee case, in the core: a ball hip, a hinge knee
+// that folds one way only ([-2.6, 0] rad about x, the foot going forward) starting straight on its
+// limit 0, and a foot target behind, below the hip and closer than the leg's length. The gradient
+// asks the knee to bend the way its limit forbids, so the hip swings the straight leg toward the
+// target, onto the stationary point (before the shared escape every solver but BFGS and FABRIK
+// stopped there, 0.27 short). Without restarts every solver now folds the knee the way its limit
+// allows, turning the hip around, and reaches the target.
+TEST(Stuck, StraightLegWithKneeOnItsLimitReachesWithoutRestarts) {
+  ChainBuilder b;
+  JointDesc hip, knee;
+  hip.type = JointType::kBall;
+  knee.type = JointType::kHinge;
+  knee.hinge_axis = glm::dvec3(1, 0, 0);
+  knee.offset_translation = glm::dvec3(0, -0.45, 0);
+  knee.limits.has_hinge_limit = true;
+  knee.limits.hinge_min = -2.6;
+  knee.limits.hinge_max = 0.0;
+  b.add_joint(hip).add_joint(knee).set_tip_offset(glm::dvec3(0, -0.42, 0));
+  Chain c;
+  ASSERT_TRUE(b.build(c).empty());
+  Workspace ws(c, 1);
+  const std::vector<Goal> goals = {Goal::position(glm::dvec3(0.0, -0.55, -0.25))};
+  for (SolverKind kind : kIterativeSolvers) {
+    SolverOptions o = test::sweep_options(c, 500);
+    o.warm_start = false;
+    Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+    const SolveResult r = test::run(kind, c, goals, o, ws, p);
+    EXPECT_EQ(r.reason, TerminationReason::kConverged) << to_string(kind);
+    EXPECT_LE(glm::length(test::tip_of(c, p) - goals[0].target_position), o.position_tolerance) << to_string(kind);
+    EXPECT_TRUE(within_limits(c, p.data(), 0.0)) << to_string(kind);
+    EXPECT_LT(p[3], -0.1) << to_string(kind);  // the knee folded, within its range
+    EXPECT_EQ(r.restarts, 0) << to_string(kind);
+  }
+}
+
+// The best pose across escapes: on the straight limb, where every solver escapes at once, the
+// final error never grows with the iteration budget (each budget's run is a prefix of the next
+// one's, and what it returns is the best it saw) and never exceeds the straight start's.
+TEST(Stuck, MoreIterationsNeverReturnAWorsePose) {
+  ChainBuilder b;
+  for (int i = 0; i < 2; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = glm::dvec3(0, 0, 1);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    if (i > 0) {
+      j.limits.has_hinge_limit = true;
+      j.limits.hinge_min = 0.0;
+      j.limits.hinge_max = 2.6;
+    }
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain c;
+  ASSERT_TRUE(b.build(c).empty());
+  Workspace ws(c, 1);
+  const glm::dvec3 target(0, 1.2, 0);
+  for (SolverKind kind : kIterativeSolvers) {
+    double previous = 2.0 - 1.2;  // the straight start's distance
+    int escaped = 0;
+    for (int budget = 1; budget <= 40; ++budget) {
+      SolverOptions o = test::sweep_options(c, budget);
+      o.warm_start = false;
+      Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+      const SolveResult r = test::run(kind, c, {Goal::position(target)}, o, ws, p);
+      EXPECT_LE(r.final_position_error, previous + 1e-15) << to_string(kind) << " budget " << budget;
+      previous = r.final_position_error;
+      escaped += r.escapes > 0;
+    }
+    EXPECT_GT(escaped, 0) << to_string(kind);  // the runs did escape
+    EXPECT_LE(previous, 1e-5 * 2.0) << to_string(kind);
+  }
+}
+
+// Reachable goals that no pose meets (a planar chain, a target off its plane): every solver gets
+// stuck again after each escape, spends its budget of escapes, reports them, and ends stalled at
+// the in-plane best (FABRIK near it: its hinge conversion has fixed points of its own); the same
+// call gives the same pose, iterations and escapes. Beyond reach (the lecture's precision case)
+// nothing escapes.
+TEST(Stuck, EscapesAreBoundedReportedAndDeterministic) {
+  ChainBuilder b;
+  for (int i = 0; i < 2; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = glm::dvec3(0, 0, 1);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain c;
+  ASSERT_TRUE(b.build(c).empty());
+  Workspace ws(c, 1);
+  for (SolverKind kind : kIterativeSolvers) {
+    SolverOptions o = test::sweep_options(c, 2000);
+    Eigen::VectorXd first = Eigen::VectorXd::Constant(c.dof_count(), 0.3);
+    Eigen::VectorXd second = first;
+    const std::vector<Goal> goals = {Goal::position(glm::dvec3(0.5, 1.0, 1.0))};
+    const SolveResult r1 = test::run(kind, c, goals, o, ws, first);
+    const SolveResult r2 = test::run(kind, c, goals, o, ws, second);
+    EXPECT_EQ(r1.reason, TerminationReason::kStalled) << to_string(kind);
+    EXPECT_EQ(r1.escapes, stuck::kMaxEscapes) << to_string(kind);
+    EXPECT_NEAR(r1.final_position_error, 1.0, kind == SolverKind::kFABRIK ? 2e-2 : 1e-4) << to_string(kind);
+    EXPECT_EQ(first, second) << to_string(kind);
+    EXPECT_EQ(r1.iterations, r2.iterations) << to_string(kind);
+    EXPECT_EQ(r1.escapes, r2.escapes) << to_string(kind);
+    // Restarts are the outer layer: each run has its own budget of escapes, and they add up.
+    o.max_restarts = 2;
+    Eigen::VectorXd p = Eigen::VectorXd::Constant(c.dof_count(), 0.3);
+    const SolveResult rr = test::run(kind, c, goals, o, ws, p);
+    EXPECT_EQ(rr.restarts, 2) << to_string(kind);
+    EXPECT_GT(rr.escapes, stuck::kMaxEscapes) << to_string(kind);
+    EXPECT_LE(rr.escapes, 3 * stuck::kMaxEscapes) << to_string(kind);
+  }
+  const Chain straight = test::make_hinge_chain(10);
+  Workspace ws10(straight, 1);
+  for (SolverKind kind : kIterativeSolvers) {
+    SolverOptions o = test::sweep_options(straight, 500);
+    Eigen::VectorXd p = Eigen::VectorXd::Constant(straight.dof_count(), 0.35);
+    const SolveResult r = test::run(kind, straight, {Goal::position(glm::dvec3(0, 12, 0))}, o, ws10, p);
+    EXPECT_EQ(r.reason, TerminationReason::kUnreachable) << to_string(kind);
+    EXPECT_EQ(r.escapes, 0) << to_string(kind);
+  }
+}
+
+}  // namespace
+}  // namespace ikchain
