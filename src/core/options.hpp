@@ -38,7 +38,8 @@ struct SolverOptions {
   // Largest rotation a single iteration may apply to one joint (rad); 0 = no cap.
   double max_step_angle = 0.0;
   // Wall-clock budget of one solve (microseconds, >= 0; 0 = none). Checked once per iteration on
-  // the steady clock, so a solve overruns it by at most the iteration in progress; the result then
+  // the steady clock (the pseudo-inverse also between the halvings of one), so a solve overruns it
+  // by at most the iteration (halving) in progress; the result then
   // has reason kMaxIterations and budget_exhausted = true, with the best pose reached so far.
   double time_budget_usec = 0.0;
   // Restarts (off by default: a game wants frame-to-frame continuity, and a restart may jump to

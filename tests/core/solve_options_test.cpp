@@ -49,9 +49,9 @@ TEST(TimeBudget, TinyBudgetStopsAfterOneIteration) {
   }
 }
 
-// The budget is checked once per iteration: with every check costing kTick of fake time, a
-// budget of B stops the solve after B / kTick iterations - never more than 10 % + one iteration
-// over the budget - and reports it.
+// The budget is checked once per iteration (the pseudo-inverse: also between halvings): with every
+// check costing kTick of fake time, a budget of B stops the solve after B / kTick checks - never
+// more than 10 % + one check over the budget - and reports it.
 TEST(TimeBudget, NeverOverrunsByMoreThanOneIteration) {
   HardProblem hp;
   Workspace ws(hp.chain, 1);
@@ -68,7 +68,15 @@ TEST(TimeBudget, NeverOverrunsByMoreThanOneIteration) {
       if (r.budget_exhausted) {
         ++exhausted;
         EXPECT_GE(spent, budget) << to_string(kind);
-        EXPECT_EQ(r.iterations, static_cast<int>(std::ceil(budget / kTick))) << to_string(kind);
+        const int checks = static_cast<int>(std::ceil(budget / kTick));
+        if (kind == SolverKind::kJacobianPinv) {
+          // It also checks between the halvings of one iteration (many FK passes each), so the
+          // checks are spread over fewer iterations.
+          EXPECT_GE(r.iterations, 1) << to_string(kind);
+          EXPECT_LE(r.iterations, checks) << to_string(kind);
+        } else {
+          EXPECT_EQ(r.iterations, checks) << to_string(kind);
+        }
       } else {
         EXPECT_NE(r.reason, TerminationReason::kMaxIterations) << to_string(kind);
       }

@@ -11,7 +11,9 @@
 // steps drive mu to dls_min_damping, i.e. to Gauss-Newton steps and their quadratic convergence
 // near the solution; bad ones shrink the step towards a short gradient step. So one solve needs
 // few iterations, and each costs one FK (plus one Jacobian when accepted): for one position goal
-// both fused in O(n) with 3x3 algebra (jacobian_common.hpp).
+// both fused in O(n) with 3x3 algebra (jacobian_common.hpp). On a chain with limits, a step asking
+// any DOF to turn more than kMaxStepTurn raises mu until it does not (a trust region in the
+// damping's own terms).
 //
 // Iterations count trials: every evaluated step, accepted or not, is one of max_iterations.
 // Stuck (stuck.hpp): the stall rule over the accepted steps, mu reaching dls_max_damping without an
@@ -38,6 +40,15 @@ constexpr double kRejectedMinDamping = 1e-2;
 // Largest |second-order correction| / |step| applied (Transtrum & Sethna 2012 use a ratio test
 // too; the value: docs/solvers.md, "Why these constants").
 constexpr double kMaxAccelerationRatio = 3.0;
+
+// On a chain with limits, the largest turn of one DOF a step may ask for (rad; metres for a
+// slide): a trust region kept by the damping itself (mu grows by kTrustDampingGrowth until the
+// step fits), so the predicted decrease stays the model's. Far from the target the undamped step
+// swings joints by radians onto their limits, where the solve then crawls along a bound to a local
+// minimum. Without limits a long step costs nothing: the cost test rejects a bad one
+// (docs/solvers.md, "Why these constants").
+constexpr double kMaxStepTurn = 0.5;
+constexpr double kTrustDampingGrowth = 4.0;
 
 template <class Model>
 SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOptions& o, Workspace& ws,
@@ -92,7 +103,18 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
     }
     const double cost = model.cost();
     const double predicted = jacobian::limit_aware_step(
-        chain, model, params, ws.step.data(), [&](double* step) { return model.damped_step(mu, step); });
+        chain, model, params, ws.step.data(), [&](double* step) {
+          const int active = model.active_dofs();
+          double predicted_decrease = model.damped_step(mu, step);
+          auto largest_turn = [&]() {
+            return Eigen::Map<const Eigen::VectorXd>(step, active).lpNorm<Eigen::Infinity>();
+          };
+          while (chain.any_limits() && mu < o.dls_max_damping && largest_turn() > kMaxStepTurn) {
+            mu = std::min(mu * kTrustDampingGrowth, o.dls_max_damping);
+            predicted_decrease = model.damped_step(mu, step);
+          }
+          return predicted_decrease;
+        });
     if (model.has_acceleration() && nu == 2.0) {
       // Geodesic acceleration (see SinglePositionModel::acceleration), skipped when the correction
       // dwarfs the step itself: the quadratic model is not to be trusted that far. Also skipped on

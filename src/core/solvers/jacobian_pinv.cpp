@@ -173,11 +173,15 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
           break;
         }
         if (halvings >= o.pinv_max_halvings) break;
+        // One iteration can try kTruncationLevels x pinv_max_halvings trials: the time budget is
+        // checked between them too, or the last iteration overruns it by that many FK passes.
+        if (ws.deadline.spent()) break;
         s *= 0.5;
       }
-      if (best_s >= kGoodFraction) break;
+      if (best_s >= kGoodFraction || ws.deadline.hit) break;
     }
     const bool accepted = best_s > 0.0;
+    if (!accepted && ws.deadline.hit) break;  // the time budget: kMaxIterations
     if (!accepted) {  // no halving decreases the cost: stuck
       if (escape()) continue;
       status.reason = TerminationReason::kStalled;

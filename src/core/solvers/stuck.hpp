@@ -45,6 +45,11 @@ namespace stuck {
 constexpr int kStallIterations = 3;
 // Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape).
 constexpr int kMaxEscapes = 4;
+// An escape pays off when the solve then gets below kEscapeGain times the best cost before it. One
+// that led to a lower but not that much lower minimum found a nearby trap, and so would another:
+// the solve stops there (and the restarts, the outer layer, take over) instead of creeping on to
+// max_iterations. One that found nothing lower at all (fell back into the same saddle) may retry.
+constexpr double kEscapeGain = 0.5;
 // The null-space step's pseudo-inverse drops singular values below this fraction of |J|, so the
 // nearly singular direction the residual is stuck in counts as free.
 constexpr double kEscapeTruncation = 1e-2;
@@ -168,6 +173,8 @@ class Escapes {
     if (state_ == kUnknown)
       state_ = provably_out_of_reach(chain_, goals_, options_.position_tolerance) ? kOutOfReach : kReachable;
     if (state_ == kOutOfReach || used_ >= kMaxEscapes) return false;
+    if (used_ > 0 && best_cost_ < best_at_escape_ && !(best_cost_ < kEscapeGain * best_at_escape_)) return false;
+    best_at_escape_ = best_cost_;
     ++used_;
     const int n = chain_.dof_count();
     const int active = jacobian::active_dof_count(chain_, goals_);
@@ -208,6 +215,7 @@ class Escapes {
 
  private:
   enum State { kUnknown, kReachable, kOutOfReach };
+  double best_at_escape_ = INFINITY;  // best_cost_ when the last escape was made
 
   // J (top rows of ws.jacobian) and the weighted residual (ws.residual) at params.
   void linearize(const double* params) {
