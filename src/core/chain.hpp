@@ -128,7 +128,7 @@ class Chain {
   const std::vector<double>& bone_lengths() const { return bone_lengths_; }
   // Sum of bone lengths: the farthest the tip can be from the root joint's origin o_0.
   double total_length() const { return total_length_; }
-  // Forward kinematics of the rest pose (params = 0), computed once at build: joint origins, world
+  // Forward kinematics of the rest pose (params = 0), computed once at build: joint origins, base-frame
   // DOF axes and tip, as forward_kinematics + compute_dof_axes give them. Every deterministic solve
   // starts there; the Jacobian solvers copy these instead of recomputing them.
   const std::vector<glm::dvec3>& rest_joint_origins() const { return rest_joint_origins_; }

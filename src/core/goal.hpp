@@ -2,7 +2,7 @@
 //
 // Residuals (what the solvers drive to zero), 3 rows per goal, e = desired - current:
 //   kPosition:    target_position - effector position                      (m)
-//   kOrientation: log(target_orientation * conj(effector orientation))      (rad, world rotation vector)
+//   kOrientation: log(target_orientation * conj(effector orientation))      (rad, rotation vector in the base frame)
 //   kAim:         rotation vector turning the effector's aim_axis (its own frame) onto
 //                 aim_direction, angle in [0, pi]                           (rad)
 //   kAimAt:       the same with aim_direction = normalize(target_position - effector position),
@@ -29,7 +29,7 @@ struct Goal {
   glm::dvec3 target_position{0.0};                   // kPosition, kAimAt: point in base space (m)
   glm::dquat target_orientation{1.0, 0.0, 0.0, 0.0};  // kOrientation (unit quaternion)
   glm::dvec3 aim_axis{0.0, 1.0, 0.0};                 // kAim, kAimAt: axis in the effector's frame
-  glm::dvec3 aim_direction{0.0, 1.0, 0.0};            // kAim: desired world direction of aim_axis
+  glm::dvec3 aim_direction{0.0, 1.0, 0.0};            // kAim: desired direction (base frame) of aim_axis
 
   static Goal position(const glm::dvec3& p, int effector = 0, double weight = 1.0) {
     Goal g;

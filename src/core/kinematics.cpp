@@ -82,16 +82,16 @@ void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws) {
 
 namespace {
 
-// Aim residual: the rotation vector turning `axis_world` onto `direction` (both unit).
-glm::dvec3 aim_error(const glm::dvec3& axis_world, const glm::dvec3& direction) {
-  const glm::dvec3 c = glm::cross(axis_world, direction);
+// Aim residual: the rotation vector turning `axis_in_base` onto `direction` (both unit).
+glm::dvec3 aim_error(const glm::dvec3& axis_in_base, const glm::dvec3& direction) {
+  const glm::dvec3 c = glm::cross(axis_in_base, direction);
   const double s = glm::length(c);
-  const double angle = std::atan2(s, glm::dot(axis_world, direction));
+  const double angle = std::atan2(s, glm::dot(axis_in_base, direction));
   if (s > 1e-12) return c * (angle / s);
   if (angle < 1.0) return glm::dvec3(0.0);
   // Opposite: any perpendicular axis turns it, pick a stable one.
-  glm::dvec3 perp = glm::cross(axis_world, glm::dvec3(1, 0, 0));
-  if (glm::dot(perp, perp) < 1e-6) perp = glm::cross(axis_world, glm::dvec3(0, 1, 0));
+  glm::dvec3 perp = glm::cross(axis_in_base, glm::dvec3(1, 0, 0));
+  if (glm::dot(perp, perp) < 1e-6) perp = glm::cross(axis_in_base, glm::dvec3(0, 1, 0));
   return glm::normalize(perp) * angle;
 }
 

@@ -49,8 +49,8 @@ inline std::array<Goal, 2> pose_goals(const Chain& chain, const glm::dvec3& posi
   return Goal::pose(position_in_base, orientation_in_base, rotation_weight * chain.total_length(), effector);
 }
 
-// World rotation axis of every DOF: ws.dof_axes. For a ball joint these are the columns of
-// pre_rotation * J_l(r), so that d(params) maps exactly to world angular velocity.
+// Base-frame rotation axis of every DOF: ws.dof_axes. For a ball joint these are the columns of
+// pre_rotation * J_l(r), so that d(params) maps exactly to angular velocity in the base frame.
 // Valid after forward_kinematics().
 void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws);
 

@@ -33,7 +33,7 @@ struct Workspace {
   std::vector<glm::dquat> joint_orientations;   // Q_i
   std::vector<glm::dquat> joint_pre_rotations;  // Q_{i-1} * rest_rotation_i: the frame a joint's motion is in
   glm::dvec3 tip{0.0};
-  std::vector<glm::dvec3> dof_axes;             // world rotation axis of each DOF (compute_dof_axes())
+  std::vector<glm::dvec3> dof_axes;             // base-frame rotation axis of each DOF (compute_dof_axes())
   // A trial pose's joint origins and DOF axes (the Jacobian solvers' fused FK writes these, and
   // swaps them with joint_origins / dof_axes when the trial is accepted: the accepted pose's stay
   // intact while trials are evaluated).

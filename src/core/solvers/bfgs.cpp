@@ -10,7 +10,7 @@
 // Gradient. evaluate_goals() gives r = sqrt(w) * (desired - current) and compute_jacobian() gives
 // J = d(current)/d(params) (kinematics.hpp), so d r / d theta = -J and grad f = -J^T r. This is exact
 // for all three goal kinds, even far from the goal: for orientation, f_g = 0.5 |log(T Q^-1)|^2 is
-// half the squared geodesic distance whose gradient w.r.t. a world rotation is -log(T Q^-1); for
+// half the squared geodesic distance whose gradient w.r.t. a base-frame rotation is -log(T Q^-1); for
 // aim, d(0.5 angle^2) = -e . omega with e perpendicular to the aim axis. (Only J's rows are
 // approximate away from zero error, which matters for Gauss-Newton steps but not for the gradient.)
 //

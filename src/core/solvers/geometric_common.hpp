@@ -1,5 +1,5 @@
 // Helpers shared by the geometric solvers (two-bone, CCD, FABRIK): minimal rotations between
-// directions, turning one joint by a world-space rotation, per-joint limit projection, the
+// directions, turning one joint by a base-frame rotation, per-joint limit projection, the
 // root-to-tip "aim each bone at a point" pass, and the per-iteration bookkeeping (Progress: the
 // shared stall rule and escape of stuck.hpp, the best pose). Header-only, internal to
 // src/core/solvers/ (not part of the public API).
@@ -89,14 +89,14 @@ inline void set_ball_param(double* params, int o, const glm::dvec3& r) {
   params[o + 2] = r.z;
 }
 
-// World axis of hinge j given the frame its motion happens in (pre_j = Q_{j-1} * rest_rotation_j).
-inline glm::dvec3 hinge_axis_world(const Chain& chain, int j, const glm::dquat& pre_j) {
+// Base-frame axis of hinge j given the frame its motion happens in (pre_j = Q_{j-1} * rest_rotation_j).
+inline glm::dvec3 hinge_axis_in_base(const Chain& chain, int j, const glm::dquat& pre_j) {
   return pre_j * chain.hinge_axis(j);
 }
 
-// Turns ball joint j by the world rotation `delta` (about the joint's origin): Q_j <- delta * Q_j,
+// Turns ball joint j by the base-frame rotation `delta` (about the joint's origin): Q_j <- delta * Q_j,
 // i.e. R_j <- conj(pre_j) * delta * pre_j * R_j. The angle is capped at max_step_angle (0 = none)
-// and the joint projected onto its limits. Returns the world rotation actually applied.
+// and the joint projected onto its limits. Returns the base-frame rotation actually applied.
 inline glm::dquat turn_ball(const Chain& chain, int j, const glm::dquat& pre_j, glm::dquat delta,
                             double max_step_angle, double* params) {
   const int o = chain.dof_offset(j);
@@ -218,7 +218,7 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
         break;
       }
     } else {
-      const glm::dvec3 axis = hinge_axis_world(chain, j, pre);
+      const glm::dvec3 axis = hinge_axis_in_base(chain, j, pre);
       const HingeFit fit = sums.fit(axis, moved, old_origin - root, origin - root);
       turn_hinge(chain, j, fit.angle(), max_step_angle, params);
     }
@@ -366,7 +366,7 @@ inline void track_goals(const Chain& chain, Span<const Goal> goals, const Worksp
 }
 
 // Turns joint j (ball or hinge) to the rotation that best serves the goals on effectors after it
-// (tracked[g] holds goal g's effector as the pose is now), limits applied. Returns the world
+// (tracked[g] holds goal g's effector as the pose is now), limits applied. Returns the base-frame
 // rotation applied about o_j, or the identity when no goal is after j.
 inline glm::dquat fit_joint(const Chain& chain, Span<const Goal> goals, const Tracked* tracked, int j,
                             const glm::dvec3& origin, const glm::dquat& pre, double max_step_angle,
@@ -380,7 +380,7 @@ inline glm::dquat fit_joint(const Chain& chain, Span<const Goal> goals, const Tr
     if (fit.pairs == 0) return kIdentity;
     return turn_ball(chain, j, pre, fit.rotation(), max_step_angle, params);
   }
-  const glm::dvec3 axis = hinge_axis_world(chain, j, pre);
+  const glm::dvec3 axis = hinge_axis_in_base(chain, j, pre);
   HingeFit fit;
   bool any = false;
   for (int g = 0; g < goals.size; ++g)

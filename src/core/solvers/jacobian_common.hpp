@@ -136,7 +136,7 @@ class SinglePositionModel {
   // costs iterations, so it is used only when every joint moving the effector is a hinge.
   bool has_acceleration() const { return all_hinges_; }
 
-  // Forward kinematics of joints 0..effector-1: joint origins and world DOF axes into the
+  // Forward kinematics of joints 0..effector-1: joint origins and base-frame DOF axes into the
   // workspace's trial buffers (the same values forward_kinematics + compute_dof_axes give), the
   // weighted residual into the trial slot; accept() makes them the current pose's. Returns the
   // cost 0.5 * w * |target - effector|^2.
@@ -287,7 +287,7 @@ class SinglePositionModel {
 
   // The effector's second derivative along a joint-space direction h at the accepted pose,
   // p'' = d^2 p(theta + t h) / dt^2 at t = 0, exact for hinge chains (see has_acceleration). With
-  // a_k the world axis of DOF k, c_k = a_k x (p - o_k) (J's column without the weight) and
+  // a_k the base-frame axis of DOF k, c_k = a_k x (p - o_k) (J's column without the weight) and
   // W_k = sum_{j<k} h_j a_j (the angular velocity of joint k's frame), differentiating
   // p' = sum_k h_k c_k gives sum_k h_k [W_k x c_k + a_k x sum_{j>=k} h_j c_j]; both double sums
   // run over the same pairs, so

@@ -37,7 +37,7 @@ namespace ikchain {
 
 namespace {
 
-// Hinge elbow: the change of angle phi about the unit world axis `w` making |u + R(phi) v| closest
+// Hinge elbow: the change of angle phi about the unit base-frame axis `w` making |u + R(phi) v| closest
 // to d, within the hinge limits. u.R(phi)v = A + B cos(phi) + C sin(phi) (Rodrigues).
 double hinge_elbow_delta(const Chain& chain, const glm::dvec3& w, const glm::dvec3& u,
                          const glm::dvec3& v, double d, const double* params) {
@@ -120,7 +120,7 @@ SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const So
       const glm::dvec3 v_new = l2 * (cos_bend * u_dir + sin_bend * side);
       geometric::turn_ball(chain, 1, pre1, geometric::rotation_between(v, v_new), 0.0, params);
     } else {
-      const glm::dvec3 w = geometric::hinge_axis_world(chain, 1, pre1);
+      const glm::dvec3 w = geometric::hinge_axis_in_base(chain, 1, pre1);
       geometric::turn_hinge(chain, 1, hinge_elbow_delta(chain, w, u, v, d, params), 0.0, params);
     }
     forward_kinematics(chain, params, ws);
@@ -143,7 +143,7 @@ SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const So
       }
       geometric::turn_ball(chain, 0, pre0, turn, 0.0, params);
     } else {
-      const glm::dvec3 w = geometric::hinge_axis_world(chain, 0, pre0);
+      const glm::dvec3 w = geometric::hinge_axis_in_base(chain, 0, pre0);
       geometric::HingeFit fit;
       fit.add(w, p, dir, 1.0);
       geometric::turn_hinge(chain, 0, fit.angle(), 0.0, params);
