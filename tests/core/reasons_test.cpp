@@ -41,17 +41,7 @@ TEST(Reasons, ReachableTargetsAreNeverUnreachable) {
 // but the sphere bounds cannot prove that, so the stop is "stalled", not "unreachable". The same
 // chain with a target in its plane beyond its length: provably out of reach, "unreachable".
 TEST(Reasons, UnreachableOnlyWhenProvablyOutOfReach) {
-  ChainBuilder b;
-  for (int i = 0; i < 2; ++i) {
-    JointDesc j;
-    j.type = JointType::kHinge;
-    j.hinge_axis = glm::dvec3(0, 0, 1);
-    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    b.add_joint(j);
-  }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain c;
-  ASSERT_TRUE(b.build(c).empty());
+  const Chain c = test::make_planar_limb(2);
   Workspace ws(c, 1);
   for (SolverKind kind : {SolverKind::kJacobianPinv, SolverKind::kDLS, SolverKind::kBFGS}) {
     SolverOptions o;

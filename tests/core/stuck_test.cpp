@@ -37,22 +37,7 @@ TEST(Stuck, StallRuleCountsIterationsWithoutProgressOnTheBest) {
 // it beats the pose the solve ends at; it moves the pose, within the limits, at most kMaxEscapes
 // times, and never for goals that are provably out of reach.
 TEST(Stuck, EscapeKeepsTheBestPoseAndHonoursItsBudget) {
-  ChainBuilder b;
-  for (int i = 0; i < 3; ++i) {
-    JointDesc j;
-    j.type = JointType::kHinge;
-    j.hinge_axis = glm::dvec3(0, 0, 1);
-    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    if (i > 0) {
-      j.limits.has_hinge_limit = true;
-      j.limits.hinge_min = 0.0;
-      j.limits.hinge_max = 2.6;
-    }
-    b.add_joint(j);
-  }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain c;
-  ASSERT_TRUE(b.build(c).empty());
+  const Chain c = test::make_planar_limb(3, 2.6);
   Workspace ws(c, 1);
   SolverOptions o;
   const std::vector<Goal> goals = {Goal::position(glm::dvec3(0, 2, 0))};
@@ -93,22 +78,7 @@ TEST(Stuck, EscapeKeepsTheBestPoseAndHonoursItsBudget) {
 TEST(Stuck, StraightLimbWithHingesOnTheirLimitIsLeftByEverySolver) {
   constexpr double kMax = 150.0 * 3.14159265358979323846 / 180.0;
   for (int bones : {2, 3}) {
-    ChainBuilder b;
-    for (int i = 0; i < bones; ++i) {
-      JointDesc j;
-      j.type = JointType::kHinge;
-      j.hinge_axis = glm::dvec3(0, 0, 1);
-      j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-      if (i > 0) {
-        j.limits.has_hinge_limit = true;
-        j.limits.hinge_min = 0.0;
-        j.limits.hinge_max = kMax;
-      }
-      b.add_joint(j);
-    }
-    b.set_tip_offset(glm::dvec3(0, 1, 0));
-    Chain c;
-    ASSERT_TRUE(b.build(c).empty());
+    const Chain c = test::make_planar_limb(bones, kMax);
     Workspace ws(c, 1);
     for (double along : {0.6, 0.9}) {
       const glm::dvec3 target(0, along * bones, 0);
@@ -178,22 +148,7 @@ TEST(Stuck, StraightLegWithKneeOnItsLimitReachesWithoutRestarts) {
 // final error never grows with the iteration budget (each budget's run is a prefix of the next
 // one's, and what it returns is the best it saw) and never exceeds the straight start's.
 TEST(Stuck, MoreIterationsNeverReturnAWorsePose) {
-  ChainBuilder b;
-  for (int i = 0; i < 2; ++i) {
-    JointDesc j;
-    j.type = JointType::kHinge;
-    j.hinge_axis = glm::dvec3(0, 0, 1);
-    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    if (i > 0) {
-      j.limits.has_hinge_limit = true;
-      j.limits.hinge_min = 0.0;
-      j.limits.hinge_max = 2.6;
-    }
-    b.add_joint(j);
-  }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain c;
-  ASSERT_TRUE(b.build(c).empty());
+  const Chain c = test::make_planar_limb(2, 2.6);
   Workspace ws(c, 1);
   const glm::dvec3 target(0, 1.2, 0);
   for (SolverKind kind : kIterativeSolvers) {
@@ -220,17 +175,7 @@ TEST(Stuck, MoreIterationsNeverReturnAWorsePose) {
 // call gives the same pose, iterations and escapes. Beyond reach (the lecture's precision case)
 // nothing escapes.
 TEST(Stuck, EscapesAreBoundedReportedAndDeterministic) {
-  ChainBuilder b;
-  for (int i = 0; i < 2; ++i) {
-    JointDesc j;
-    j.type = JointType::kHinge;
-    j.hinge_axis = glm::dvec3(0, 0, 1);
-    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    b.add_joint(j);
-  }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain c;
-  ASSERT_TRUE(b.build(c).empty());
+  const Chain c = test::make_planar_limb(2);
   Workspace ws(c, 1);
   for (SolverKind kind : kIterativeSolvers) {
     SolverOptions o = test::sweep_options(c, 2000);

@@ -28,6 +28,30 @@ inline Chain make_hinge_chain(int n, double link = 1.0) {
   return c;
 }
 
+// n hinges about z (a planar limb), unit links along +Y, the tip 1 beyond the last joint. With
+// bend_max > 0 every hinge but the first bends one way only, [0, bend_max] rad: straight, each sits
+// on its limit.
+inline Chain make_planar_limb(int n, double bend_max = 0.0) {
+  ChainBuilder b;
+  for (int i = 0; i < n; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = glm::dvec3(0, 0, 1);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    if (i > 0 && bend_max > 0.0) {
+      j.limits.has_hinge_limit = true;
+      j.limits.hinge_min = 0.0;
+      j.limits.hinge_max = bend_max;
+    }
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain c;
+  const Message m = b.build(c);
+  EXPECT_TRUE(m.empty()) << m.c_str();
+  return c;
+}
+
 // n ball joints, bones along +Y of the given length (a Godot-style bone chain).
 inline Chain make_ball_chain(int n, double link = 1.0) {
   ChainBuilder b;
