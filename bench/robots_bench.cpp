@@ -205,6 +205,23 @@ struct Cell {
   std::string note;
 
   double rate() const { return trials ? static_cast<double>(successes) / trials : NAN; }
+  // One solve's times (wall and CPU, us), iterations and restarts; `failure` is null on success.
+  void add(double wall, double cpu, double iters, int restarts_used, const char* reason, const char* failure) {
+    ++trials;
+    us.push_back(wall);
+    cpu_us.push_back(cpu);
+    (restarts_used ? cpu_us_restarted : cpu_us_first_run).push_back(cpu);
+    iterations.push_back(iters);
+    restarts.push_back(restarts_used);
+    ++reasons[reason];
+    if (!failure) {
+      ++successes;
+      solved_us.push_back(wall);
+      if (restarts_used == 0) ++first_run_successes;
+    } else {
+      ++failures[failure];
+    }
+  }
 };
 
 struct Judge {
@@ -253,22 +270,12 @@ Cell run_ours(Arm& arm, const SolverSpec& spec, bool full_pose, int restarts, do
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     const double cpu = thread_cpu_us() - c0;
     const Judge j = judge(arm, full_pose, targets[t], q);
-    ++cell.trials;
-    cell.us.push_back(us);
-    cell.cpu_us.push_back(cpu);
-    (r.restarts ? cell.cpu_us_restarted : cell.cpu_us_first_run).push_back(cpu);
-    cell.iterations.push_back(r.iterations);
-    cell.restarts.push_back(r.restarts);
-    ++cell.reasons[ikchain::to_string(r.reason)];
-    if (j.ok) {
-      ++cell.successes;
-      cell.solved_us.push_back(us);
-      if (r.restarts == 0) ++cell.first_run_successes;
-    } else {
-      // The solver's own reason, or the judge's when the solver claimed convergence.
-      ++cell.failures[r.reason == ikchain::TerminationReason::kConverged ? j.why : ikchain::to_string(r.reason)];
-      if (r.reason == ikchain::TerminationReason::kInvalidInput && cell.note.empty()) cell.note = r.message.c_str();
-    }
+    // A failure's reason: the solver's own, or the judge's when the solver claimed convergence.
+    const char* reason = ikchain::to_string(r.reason);
+    cell.add(us, cpu, r.iterations, r.restarts, reason,
+             j.ok ? nullptr : r.reason == ikchain::TerminationReason::kConverged ? j.why : reason);
+    if (!j.ok && r.reason == ikchain::TerminationReason::kInvalidInput && cell.note.empty())
+      cell.note = r.message.c_str();
     if (budget_us > 0.0) {
       cell.worst_ratio = std::max(cell.worst_ratio, us / budget_us);
       cell.worst_cpu_ratio = std::max(cell.worst_cpu_ratio, cpu / budget_us);
@@ -340,20 +347,8 @@ Cell run_kdl(Arm& arm, const SolverSpec& spec, bool full_pose, int restarts, con
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
     const double cpu = thread_cpu_us() - c0;
     const Judge j = judge(arm, full_pose, targets[t], q);
-    ++cell.trials;
-    cell.us.push_back(us);
-    cell.cpu_us.push_back(cpu);
-    (used ? cell.cpu_us_restarted : cell.cpu_us_first_run).push_back(cpu);
-    cell.iterations.push_back(spec.nr_jl ? NAN : iterations);
-    cell.restarts.push_back(used);
-    ++cell.reasons[kdl_reason(rc)];
-    if (j.ok) {
-      ++cell.successes;
-      cell.solved_us.push_back(us);
-      if (used == 0) ++cell.first_run_successes;
-    } else {
-      ++cell.failures[rc >= 0 ? j.why : kdl_reason(rc)];
-    }
+    cell.add(us, cpu, spec.nr_jl ? NAN : iterations, used, kdl_reason(rc),
+             j.ok ? nullptr : rc >= 0 ? j.why : kdl_reason(rc));
   }
   if (spec.nr_jl) cell.iterations.clear();  // NR_JL does not report its iterations
   return cell;
