@@ -198,12 +198,36 @@ void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
   project_to_limits(chain, params);
 }
 
+// Moves every hinge resting on a bound (within kOnBoundFraction of its range) whose bound +- 2 pi
+// also lies in its range across to that value: the same pose, so the same tip, but on the other side
+// of the wall. A hinge whose range spans a full turn (UR arms: +-pi) stops on a bound when its
+// solution lies just beyond it, i.e. just inside the opposite end; from the wrapped value the same
+// gradient leads into it. Returns whether any hinge moved.
+constexpr double kOnBoundFraction = 1e-6;
+bool wrap_bound_hinges(const Chain& chain, double* params) {
+  bool moved = false;
+  for (int i = 0; i < chain.joint_count(); ++i) {
+    if (chain.joint_type(i) != JointType::kHinge || !chain.limits(i).has_hinge_limit) continue;
+    const JointLimits& l = chain.limits(i);
+    const double range = l.hinge_max - l.hinge_min, slack = kOnBoundFraction * range;
+    double& q = params[chain.dof_offset(i)];
+    if (q <= l.hinge_min + slack && q + 2.0 * so3::kPi <= l.hinge_max + slack) {
+      q = std::min(q + 2.0 * so3::kPi, l.hinge_max);
+      moved = true;
+    } else if (q >= l.hinge_max - slack && q - 2.0 * so3::kPi >= l.hinge_min - slack) {
+      q = std::max(q - 2.0 * so3::kPi, l.hinge_min);
+      moved = true;
+    }
+  }
+  return moved;
+}
+
 // Seeded restarts (SolverOptions::max_restarts): while the goals are unmet, not provably out of
 // reach, restarts are left and the time budget is not spent, the solver runs again from a random
-// pose within the limits; the best pose over every run is kept (params, status). The outer layer
-// of the stuck -> escape mechanism (solvers/stuck.hpp): inside a run, a stuck solve escapes by a
-// local, deterministic move (at most stuck::kMaxEscapes); across runs, a restart re-seeds the
-// whole pose. Iterations and escapes count every run.
+// pose within the limits, or from the last run's end wrapped across its bounds; the best pose
+// over every run is kept (params, status). The outer layer of the stuck -> escape mechanism
+// (solvers/stuck.hpp): inside a run, a stuck solve escapes by a local, deterministic move (at
+// most stuck::kMaxEscapes); across runs, a restart re-seeds the whole pose. Iterations and escapes count every run.
 void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                   Workspace& ws, double* p, SolverStatus& status, int& restarts) {
   if (options.max_restarts <= 0 || kind == SolverKind::kTwoBone) return;
@@ -218,9 +242,17 @@ void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   SolverStatus best = status;
   int iterations = status.iterations;
   int escapes = status.escapes;
+  // p holds the last run's end; a restart after a fresh draw first tries that end wrapped across
+  // its bounds (wrap_bound_hinges), then draws again: alternating, so a wrap never repeats itself.
+  bool last_was_wrap = false;
   while (restarts < options.max_restarts && !ws.deadline.hit && !ws.deadline.spent()) {
     ++restarts;
-    random_pose(chain, rng, p);
+    if (!last_was_wrap && wrap_bound_hinges(chain, p)) {
+      last_was_wrap = true;
+    } else {
+      random_pose(chain, rng, p);
+      last_was_wrap = false;
+    }
     SolverStatus run = run_solver(kind, chain, goals, options, ws, p);
     iterations += run.iterations;
     escapes += run.escapes;

@@ -147,6 +147,43 @@ TEST(Restarts, NotForUnreachableGoalsAndWithinTheBudget) {
   }
 }
 
+// A hinge limited to a full turn, [-pi, pi], whose solution lies just inside +pi, started just
+// inside -pi: the shorter way runs into the -pi bound and every solver stops there. The first
+// restart continues from that end wrapped across the bound (+pi, the same pose), and the same
+// shorter way now leads into the solution, for every seed (a random draw would miss about half).
+TEST(Restarts, WrapAHingeStoppedOnAFullTurnBound) {
+  ChainBuilder b;
+  JointDesc j;
+  j.type = JointType::kHinge;
+  j.hinge_axis = glm::dvec3(0, 0, 1);
+  j.limits.has_hinge_limit = true;
+  j.limits.hinge_min = -so3::kPi;
+  j.limits.hinge_max = so3::kPi;
+  b.add_joint(j);
+  b.set_tip_offset(glm::dvec3(0, 1, 0));  // tip (-sin q, cos q, 0)
+  Chain c;
+  ASSERT_TRUE(b.build(c).empty());
+  Workspace ws(c, 1);
+  const double solution = so3::kPi - 0.05;
+  const std::vector<Goal> goals = {Goal::position(glm::dvec3(-std::sin(solution), std::cos(solution), 0))};
+  for (SolverKind kind : {SolverKind::kJacobianPinv, SolverKind::kDLS, SolverKind::kBFGS}) {
+    Eigen::VectorXd p(1);
+    p[0] = -so3::kPi + 0.1;
+    SolveResult r = test::run(kind, c, goals, arm_options(c, 0), ws, p);
+    EXPECT_NE(r.reason, TerminationReason::kConverged) << to_string(kind);
+    EXPECT_NEAR(p[0], -so3::kPi, 1e-6) << to_string(kind);
+    for (unsigned seed = 1; seed <= 16; ++seed) {
+      SolverOptions o = arm_options(c, 1);
+      o.restart_seed = seed;
+      p[0] = -so3::kPi + 0.1;
+      r = test::run(kind, c, goals, o, ws, p);
+      EXPECT_EQ(r.reason, TerminationReason::kConverged) << to_string(kind) << " seed " << seed;
+      EXPECT_EQ(r.restarts, 1) << to_string(kind) << " seed " << seed;
+      EXPECT_NEAR(p[0], solution, 1e-4) << to_string(kind) << " seed " << seed;
+    }
+  }
+}
+
 TEST(Restarts, SolveAllocatesNothing) {
   const Chain c = limited_arm7();
   const std::vector<Goal> goals = full_poses(c, 1, 11)[0];
