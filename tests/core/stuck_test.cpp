@@ -144,6 +144,58 @@ TEST(Stuck, StraightLegWithKneeOnItsLimitReachesWithoutRestarts) {
   }
 }
 
+// A constrained local minimum, the shape of the UR10's failures without restarts (elbow and wrist
+// on their bounds): a planar limb of three hinges about z, each limited to [-2.5, 2.5] rad, the
+// last two on their lower bound, the target (0.3, 1, 0) 0.44 away. The gradient pushes both pinned
+// hinges further out and the first is at its best angle, so every step stands still and no
+// null-space move helps (the bounds, not J, hold the pose): before the escape moved the pinned
+// hinges to the middle of their range, pinv, DLS, BFGS and FABRIK all stopped there. Now they
+// reach the target without restarts.
+TEST(Stuck, HingesPinnedOnTheirBoundsAreMovedOffThem) {
+  ChainBuilder b;
+  for (int i = 0; i < 3; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = glm::dvec3(0, 0, 1);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    j.limits.has_hinge_limit = true;
+    j.limits.hinge_min = -2.5;
+    j.limits.hinge_max = 2.5;
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 1, 0));
+  Chain c;
+  ASSERT_TRUE(b.build(c).empty());
+  Workspace ws(c, 1);
+  const std::vector<Goal> goals = {Goal::position(glm::dvec3(0.3, 1.0, 0.0))};
+  Eigen::VectorXd pinned(3);
+  pinned << -0.933, -2.5, -2.5;
+  EXPECT_GT(glm::length(test::tip_of(c, pinned) - goals[0].target_position), 0.44);
+
+  // The move itself: each pinned hinge goes to the middle of its range, the free one stays.
+  SolverOptions o = test::sweep_options(c, 200);
+  {
+    stuck::Escapes escapes(c, Span<const Goal>(goals), o, ws);
+    Eigen::VectorXd p = pinned;
+    ASSERT_TRUE(escapes.escape(p.data(), 0.1));
+    EXPECT_DOUBLE_EQ(p[0], pinned[0]);
+    EXPECT_EQ(p[1], 0.0);
+    EXPECT_EQ(p[2], 0.0);
+  }
+  for (SolverKind kind : {SolverKind::kJacobianPinv, SolverKind::kDLS, SolverKind::kBFGS, SolverKind::kFABRIK}) {
+    o.warm_start = true;
+    Eigen::VectorXd p = pinned;
+    const std::size_t before = test::allocation_count();
+    const SolveResult r = test::run(kind, c, goals, o, ws, p);
+    EXPECT_EQ(test::allocation_count() - before, 0u) << to_string(kind);
+    EXPECT_EQ(r.reason, TerminationReason::kConverged) << to_string(kind);
+    EXPECT_LE(glm::length(test::tip_of(c, p) - goals[0].target_position), o.position_tolerance) << to_string(kind);
+    EXPECT_TRUE(within_limits(c, p.data(), 0.0)) << to_string(kind);
+    EXPECT_GE(r.escapes, 1) << to_string(kind);
+    EXPECT_EQ(r.restarts, 0) << to_string(kind);
+  }
+}
+
 // The best pose across escapes: on the straight limb, where every solver escapes at once, the
 // final error never grows with the iteration budget (each budget's run is a prefix of the next
 // one's, and what it returns is the best it saw) and never exceeds the straight start's.

@@ -10,18 +10,21 @@
 //    sweep that moves nothing); escape() refuses when the budget (kMaxEscapes per solve) is spent
 //    or the goals are provably out of reach (then the stuck pose is the best reach), and the
 //    solver stops as kStalled.
-// The move stays in the null space of J, so to first order it keeps the effectors where they are
-// and changes only the configuration: first a step toward the rest pose (the pseudo-inverse's
-// classic secondary task: Liegeois 1977; Buss 2004, sec. 4), which e.g. untwists a chain caught at
-// a singular saddle. Where that does not leave the stationary point (at the rest pose itself, or
-// with the limits in the way), a fixed, deterministic direction (the kick) projected the same way,
-// with the sign that pushes no hinge resting on a bound outward: a straight limb whose knee sits
-// on its limit then folds the way the limit allows, its tip pulled toward the root at second
-// order. Failing both, the kick itself. Hinges on a bound that a step would push out are left out
-// of its projection (the active set of jacobian::limit_aware_step). Deterministic: the same solve
-// escapes the same way. Restarts (SolverOptions::max_restarts, solve.cpp) are the outer layer of
-// the same idea: an escape is a local perturbation inside one solve, a restart a new seeded start
-// pose across solves (docs/solvers.md, "When a solve is stuck").
+// When joints rest on their bounds (first and third escape), the move first takes them to the
+// middle of their range: a minimum the bounds hold is a constrained one that no null-space move
+// leaves.
+// Otherwise the move stays in the null space of J, so to first order it keeps the effectors where
+// they are and changes only the configuration: first a step toward the rest pose (the
+// pseudo-inverse's classic secondary task: Liegeois 1977; Buss 2004, sec. 4), which e.g. untwists a
+// chain caught at a singular saddle. Where that does not leave the stationary point (at the rest
+// pose itself, or with the limits in the way), a fixed, deterministic direction (the kick)
+// projected the same way, with the sign that pushes no hinge resting on a bound outward: a straight
+// limb whose knee sits on its limit then folds the way the limit allows, its tip pulled toward the
+// root at second order. Failing both, the kick itself. Hinges on a bound that a step would push out
+// are left out of its projection (the active set of jacobian::limit_aware_step). Deterministic: the
+// same solve escapes the same way. Restarts (SolverOptions::max_restarts, solve.cpp) are the outer
+// layer of the same idea: an escape is a local perturbation inside one solve, a restart a new
+// seeded start pose across solves (docs/solvers.md, "When a solve is stuck").
 // Allocates nothing: every buffer is the workspace's.
 #pragma once
 #include <algorithm>
@@ -181,6 +184,10 @@ class Escapes {
     double* before = ws_.params_trial.data();
     double* step = ws_.dof_vec_b.data();
     std::copy(params, params + n, before);
+    // 0. Off the bounds: a minimum with joints resting on bounds is a constrained one that no
+    //    null-space move leaves (the bound, not J, holds it). Every such joint moves to the middle
+    //    of its range and the solve starts again from there - on the first escape and the third.
+    if (used_ % 2 == 1 && unpin(active, params)) return true;
     // 1. Toward the rest pose, in the null space of J, the hinges on a bound it would push out
     //    left out - kept when it moves the pose off the stationary point.
     linearize(params);
@@ -298,6 +305,20 @@ class Escapes {
         for (int d = d0; d < d0 + 3; ++d) z[d] = -params[d];
       }
     }
+  }
+
+  // Moves every limited hinge or slide resting on a bound to the middle of its range (nearer
+  // fractions of the range left more of the real arms' pinned minima); true when that moved any.
+  bool unpin(int active, double* params) const {
+    bool moved = false;
+    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+      const JointLimits& l = chain_.limits(i);
+      if (hinge_blocked(chain_, i, params, -1.0) || hinge_blocked(chain_, i, params, 1.0)) {
+        params[chain_.dof_offset(i)] = 0.5 * (l.hinge_min + l.hinge_max);
+        moved = true;
+      }
+    }
+    return moved;
   }
 
   // The kick: DOF j turns by kKickAmplitude * sin(golden angle * (j + 1) + escape number) (signs
