@@ -148,9 +148,11 @@ TEST(Restarts, NotForUnreachableGoalsAndWithinTheBudget) {
 }
 
 // A hinge limited to a full turn, [-pi, pi], whose solution lies just inside +pi, started just
-// inside -pi: the shorter way runs into the -pi bound and every solver stops there. The first
-// restart continues from that end wrapped across the bound (+pi, the same pose), and the same
-// shorter way now leads into the solution, for every seed (a random draw would miss about half).
+// inside -pi: the shorter way runs into the -pi bound. A solver either stops there, or leaves it
+// inside the run by the escape's off-the-bounds move (solvers/stuck.hpp). One that stops there is
+// taken by the first restart from that end wrapped across the bound (+pi, the same pose), where the
+// same shorter way leads into the solution, for every seed (a random draw would miss about half);
+// at least one solver (the pseudo-inverse) exercises the wrap.
 TEST(Restarts, WrapAHingeStoppedOnAFullTurnBound) {
   ChainBuilder b;
   JointDesc j;
@@ -166,22 +168,29 @@ TEST(Restarts, WrapAHingeStoppedOnAFullTurnBound) {
   Workspace ws(c, 1);
   const double solution = so3::kPi - 0.05;
   const std::vector<Goal> goals = {Goal::position(glm::dvec3(-std::sin(solution), std::cos(solution), 0))};
+  int stopped_on_the_bound = 0;
   for (SolverKind kind : {SolverKind::kJacobianPinv, SolverKind::kDLS, SolverKind::kBFGS}) {
     Eigen::VectorXd p(1);
     p[0] = -so3::kPi + 0.1;
     SolveResult r = test::run(kind, c, goals, arm_options(c, 0), ws, p);
-    EXPECT_NE(r.reason, TerminationReason::kConverged) << to_string(kind);
-    EXPECT_NEAR(p[0], -so3::kPi, 1e-6) << to_string(kind);
+    const bool stopped = r.reason != TerminationReason::kConverged;
+    if (stopped) {
+      ++stopped_on_the_bound;
+      EXPECT_NEAR(p[0], -so3::kPi, 1e-6) << to_string(kind);
+    } else {
+      EXPECT_NEAR(p[0], solution, 1e-4) << to_string(kind);
+    }
     for (unsigned seed = 1; seed <= 16; ++seed) {
       SolverOptions o = arm_options(c, 1);
       o.restart_seed = seed;
       p[0] = -so3::kPi + 0.1;
       r = test::run(kind, c, goals, o, ws, p);
       EXPECT_EQ(r.reason, TerminationReason::kConverged) << to_string(kind) << " seed " << seed;
-      EXPECT_EQ(r.restarts, 1) << to_string(kind) << " seed " << seed;
+      EXPECT_EQ(r.restarts, stopped ? 1 : 0) << to_string(kind) << " seed " << seed;
       EXPECT_NEAR(p[0], solution, 1e-4) << to_string(kind) << " seed " << seed;
     }
   }
+  EXPECT_GE(stopped_on_the_bound, 1);
 }
 
 TEST(Restarts, SolveAllocatesNothing) {
