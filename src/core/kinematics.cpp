@@ -57,11 +57,15 @@ glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int eff
   return ws.joint_orientations[k - 1];
 }
 
+double aim_at_on_point_radius(const Chain& chain, const Goal& goal) {
+  return kAimAtOnPoint * (chain.total_length() + glm::length(goal.target_position));
+}
+
 bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
                       double& distance) {
   const glm::dvec3 d = goal.target_position - effector_position(chain, ws, goal.effector);
   distance = glm::length(d);
-  if (!(distance > kAimAtOnPoint * (chain.total_length() + glm::length(goal.target_position)))) return false;
+  if (!(distance > aim_at_on_point_radius(chain, goal))) return false;
   direction = d / distance;
   return true;
 }

@@ -38,6 +38,8 @@ glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int eff
 // would be mostly rounding: the positions it is taken from carry a few ulps of their magnitude,
 // and the angle's error is that over the distance. Valid after forward_kinematics().
 constexpr double kAimAtOnPoint = 1e-6;
+// That radius for `goal` on `chain` (m): kAimAtOnPoint * (chain length + |point|).
+double aim_at_on_point_radius(const Chain& chain, const Goal& goal);
 bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
                       double& distance);
 

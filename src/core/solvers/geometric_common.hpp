@@ -235,6 +235,7 @@ struct Tracked {
   int effector = 0;  // 1..n
   glm::dvec3 position{0.0};
   glm::dquat orientation{1.0, 0.0, 0.0, 0.0};
+  double aim_at_on_point = 0.0;  // kAimAt: aim_at_on_point_radius (kinematics.hpp), m
 };
 
 // Cyclic Jacobi eigen-decomposition of a symmetric 4x4 matrix, in place: on return a is diagonal
@@ -347,10 +348,12 @@ inline void goal_pairs(const Goal& g, const Tracked& t, const glm::dvec3& origin
       break;
     case GoalKind::kAimAt: {
       // The direction to the point from where the effector is now: exact once the joint's turn
-      // no longer moves the effector much, refined by the next sweep otherwise.
+      // no longer moves the effector much, refined by the next sweep otherwise. On the point (the
+      // rule every solver measures by, aim_at_direction) the goal is met: nothing to add.
       const glm::dvec3 to_point = g.target_position - t.position;
-      if (glm::length(to_point) > 0.0)
-        add(glm::normalize(t.orientation * g.aim_axis), glm::normalize(to_point), g.weight);
+      const double distance = glm::length(to_point);
+      if (distance > t.aim_at_on_point)
+        add(glm::normalize(t.orientation * g.aim_axis), to_point / distance, g.weight);
       break;
     }
   }
@@ -362,6 +365,7 @@ inline void track_goals(const Chain& chain, Span<const Goal> goals, const Worksp
     tracked[g].effector = resolve_effector(chain, goals[g].effector);
     tracked[g].position = effector_position(chain, ws, goals[g].effector);
     tracked[g].orientation = effector_orientation(chain, ws, goals[g].effector);
+    tracked[g].aim_at_on_point = aim_at_on_point_radius(chain, goals[g]);
   }
 }
 
