@@ -40,6 +40,7 @@
 #include <kdl/frames.hpp>
 #include <kdl/jntarray.hpp>
 
+#include "ball_arm.hpp"
 #include "bench_common.hpp"
 #include "core/ikchain.hpp"
 
@@ -488,63 +489,10 @@ Chain make_limited_arm(const LimitedArm& arm) {
   return build_or_exit(b, arm.name);
 }
 
-// A human-like arm with ball joints: shoulder ball (cone 45 deg, twist +-30 deg), elbow hinge
-// across the bone ([0, 2.6] rad), wrist ball (cone 50 deg, twist free). Bones along +Y, the twist
-// axis; the same arm as tests/core/limits_test.cpp.
-Chain make_ball_arm() {
-  ikchain::ChainBuilder b;
-  ikchain::JointDesc shoulder;
-  shoulder.type = ikchain::JointType::kBall;
-  shoulder.limits.has_cone_limit = true;
-  shoulder.limits.cone_angle = kPi / 4.0;
-  shoulder.limits.has_twist_limit = true;
-  shoulder.limits.twist_min = -kPi / 6.0;
-  shoulder.limits.twist_max = kPi / 6.0;
-  b.add_joint(shoulder);
-  ikchain::JointDesc elbow;
-  elbow.type = ikchain::JointType::kHinge;
-  elbow.hinge_axis = glm::dvec3(0, 0, 1);
-  elbow.offset_translation = glm::dvec3(0, 0.30, 0);
-  elbow.limits.has_hinge_limit = true;
-  elbow.limits.hinge_min = 0.0;
-  elbow.limits.hinge_max = 2.6;
-  b.add_joint(elbow);
-  ikchain::JointDesc wrist;
-  wrist.type = ikchain::JointType::kBall;
-  wrist.offset_translation = glm::dvec3(0, 0.27, 0);
-  wrist.limits.has_cone_limit = true;
-  wrist.limits.cone_angle = 50.0 * kPi / 180.0;
-  b.add_joint(wrist);
-  b.set_tip_offset(glm::dvec3(0, 0.08, 0));
-  return build_or_exit(b, "ball3");
-}
-
-// Every joint of `chain` at a random in-limit pose: hinges uniform in their range, balls a swing
-// about a random axis across the bone (uniform over the cone's cap) times a twist uniform in its
-// range. `on_boundary`: every limited joint on a limit instead - hinges on a random bound, balls
-// with the swing at the cone angle and the twist on a random bound.
-void limited_pose(const Chain& chain, bool on_boundary, std::mt19937& rng, double* params) {
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (int i = 0; i < chain.joint_count(); ++i) {
-    const ikchain::JointLimits& l = chain.limits(i);
-    const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) != ikchain::JointType::kBall) {
-      params[o] = on_boundary ? (u(rng) < 0.5 ? l.hinge_min : l.hinge_max)
-                              : l.hinge_min + (l.hinge_max - l.hinge_min) * u(rng);
-      continue;
-    }
-    const double heading = 2.0 * kPi * u(rng);
-    const glm::dvec3 swing_axis(std::cos(heading), 0.0, std::sin(heading));  // across the bone (+Y)
-    const double cone = l.has_cone_limit ? l.cone_angle : kPi;
-    const double swing = on_boundary ? cone : cone * std::sqrt(u(rng));
-    const double lo = l.has_twist_limit ? l.twist_min : -kPi, hi = l.has_twist_limit ? l.twist_max : kPi;
-    const double twist = on_boundary && l.has_twist_limit ? (u(rng) < 0.5 ? lo : hi) : lo + (hi - lo) * u(rng);
-    const glm::dvec3 r = ikchain::so3::log(glm::angleAxis(swing, swing_axis) * glm::angleAxis(twist, l.twist_axis));
-    params[o] = r.x;
-    params[o + 1] = r.y;
-    params[o + 2] = r.z;
-  }
-}
+// The human-like ball-jointed arm ("ball3") and limited_pose(): ball_arm.hpp, shared with the
+// core's limits tests.
+Chain make_ball_arm() { return build_or_exit(ikchain::bench::ball_arm_builder(), "ball3"); }
+using ikchain::bench::limited_pose;
 
 // One arm of the limits stage: the chain, and how the goals (FK of random in-limit poses) and
 // every solve's start pose are drawn.

@@ -6,70 +6,24 @@
 #include <random>
 #include <vector>
 
+#include "ball_arm.hpp"
 #include "solver_test_util.hpp"
 
 namespace ikchain {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-// A human-like arm (as bench/core_bench.cpp's ball3): shoulder ball (cone 45 deg, twist +-30 deg),
-// elbow hinge across the bone ([0, 2.6] rad), wrist ball (cone 50 deg, twist free). Bones along +Y.
+// The bench's human-like arm (bench/ball_arm.hpp, "ball3"): shoulder ball (cone 45 deg, twist
+// +-30 deg), elbow hinge across the bone ([0, 2.6] rad), wrist ball (cone 50 deg, twist free).
 Chain ball_arm() {
-  ChainBuilder b;
-  JointDesc shoulder;
-  shoulder.type = JointType::kBall;
-  shoulder.limits.has_cone_limit = true;
-  shoulder.limits.cone_angle = kPi / 4.0;
-  shoulder.limits.has_twist_limit = true;
-  shoulder.limits.twist_min = -kPi / 6.0;
-  shoulder.limits.twist_max = kPi / 6.0;
-  b.add_joint(shoulder);
-  JointDesc elbow;
-  elbow.type = JointType::kHinge;
-  elbow.hinge_axis = glm::dvec3(0, 0, 1);
-  elbow.offset_translation = glm::dvec3(0, 0.30, 0);
-  elbow.limits.has_hinge_limit = true;
-  elbow.limits.hinge_min = 0.0;
-  elbow.limits.hinge_max = 2.6;
-  b.add_joint(elbow);
-  JointDesc wrist;
-  wrist.type = JointType::kBall;
-  wrist.offset_translation = glm::dvec3(0, 0.27, 0);
-  wrist.limits.has_cone_limit = true;
-  wrist.limits.cone_angle = 50.0 * kPi / 180.0;
-  b.add_joint(wrist);
-  b.set_tip_offset(glm::dvec3(0, 0.08, 0));
   Chain c;
-  EXPECT_TRUE(b.build(c).empty());
+  EXPECT_TRUE(bench::ball_arm_builder().build(c).empty());
   return c;
 }
 
-// A random in-limit pose (hinges uniform in range; balls a swing across the bone, uniform over the
-// cone's cap, times a twist uniform in range), or with `on_boundary` every joint on a limit (the
-// swing at the cone angle, twist and hinge on a random bound). As the bench's limited_pose().
+// A random in-limit pose, or with `on_boundary` every joint on a limit (bench/ball_arm.hpp).
 Eigen::VectorXd limited_pose(const Chain& chain, bool on_boundary, std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(0.0, 1.0);
   Eigen::VectorXd params(chain.dof_count());
-  for (int i = 0; i < chain.joint_count(); ++i) {
-    const JointLimits& l = chain.limits(i);
-    const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) != JointType::kBall) {
-      params[o] = on_boundary ? (u(rng) < 0.5 ? l.hinge_min : l.hinge_max)
-                              : l.hinge_min + (l.hinge_max - l.hinge_min) * u(rng);
-      continue;
-    }
-    const double heading = 2.0 * kPi * u(rng);
-    const glm::dvec3 swing_axis(std::cos(heading), 0.0, std::sin(heading));
-    const double cone = l.has_cone_limit ? l.cone_angle : kPi;
-    const double swing = on_boundary ? cone : cone * std::sqrt(u(rng));
-    const double lo = l.has_twist_limit ? l.twist_min : -kPi, hi = l.has_twist_limit ? l.twist_max : kPi;
-    const double twist = on_boundary && l.has_twist_limit ? (u(rng) < 0.5 ? lo : hi) : lo + (hi - lo) * u(rng);
-    const glm::dvec3 r = so3::log(glm::angleAxis(swing, swing_axis) * glm::angleAxis(twist, l.twist_axis));
-    params[o] = r.x;
-    params[o + 1] = r.y;
-    params[o + 2] = r.z;
-  }
+  bench::limited_pose(chain, on_boundary, rng, params.data());
   return params;
 }
 
