@@ -41,6 +41,11 @@ export interface SolveResult {
   finalPositionError: number;
   finalOrientationError: number;
   elapsedUs: number; // measured inside the core
+  // The time budget (Options.timeBudgetUsec) ran out: reason is then max_iterations (or unreachable
+  // when the pose it stopped at is provably a best reach).
+  budgetExhausted: boolean;
+  restarts: number; // restarts run (Options.maxRestarts); iterations include theirs
+  escapes: number; // escapes from stuck poses inside the runs, restarts' included
   message: string; // why, for invalid_input
 }
 
@@ -88,6 +93,12 @@ export interface Options {
   orientationTolerance?: number; // rad
   warmStart?: boolean; // start from the current pose (true) or the rest pose
   maxStepAngle?: number; // rad per iteration and joint, 0 = no cap
+  timeBudgetUsec?: number; // µs of wall clock per solve, restarts included; 0 = none
+  // Restarts from seeded random in-limit poses while the goals are unmet and not provably out of
+  // reach (off by default: a restart may jump to another branch between frames); the best pose of
+  // all runs is kept. The same seed gives the same restarts, so the same result.
+  maxRestarts?: number;
+  restartSeed?: number; // an integer in 0..2^32-1
 }
 
 export interface JointFrame {
@@ -106,10 +117,27 @@ function check(message: string, what: string): void {
   if (message !== '') throw new IKError(`${what}: ${message}`);
 }
 
+// The core validates every option's range and names a bad one in the solve's result; an integer
+// option must first survive the crossing into C++, where embind would silently truncate or wrap it.
+const INTEGER_OPTIONS = {
+  maxIterations: [-(2 ** 31), 2 ** 31 - 1], // int
+  maxRestarts: [-(2 ** 31), 2 ** 31 - 1], // int
+  restartSeed: [0, 2 ** 32 - 1], // unsigned
+} as const;
+
+function checkIntegerOptions(options: Options): void {
+  for (const [name, [min, max]] of Object.entries(INTEGER_OPTIONS)) {
+    const v = options[name as keyof typeof INTEGER_OPTIONS];
+    if (v !== undefined && !(Number.isInteger(v) && v >= min && v <= max))
+      throw new IKError(`setOptions: ${name} must be an integer in ${min}..${max}, got ${v}`);
+  }
+}
+
 export class Chain {
   private readonly raw: RawWebChain;
   private opts: Required<Options> = {
     maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, maxStepAngle: 0,
+    timeBudgetUsec: 0, maxRestarts: 0, restartSeed: 1,
   };
 
   // Use IKCore.createChain / createBenchChain.
@@ -159,7 +187,10 @@ export class Chain {
       throw new IKError(`setAimDirection: goal ${index} is not an aim goal`);
   }
 
+  // Throws IKError (options unchanged) for an integer option that is not one; every other check is
+  // the core's, at the next solve.
   setOptions(options: Options): void {
+    checkIntegerOptions(options);
     this.opts = { ...this.opts, ...options };
     this.applyOptions();
   }
@@ -170,6 +201,9 @@ export class Chain {
     this.raw.setTolerances(o.positionTolerance, o.orientationTolerance);
     this.raw.setWarmStart(o.warmStart);
     this.raw.setMaxStepAngle(o.maxStepAngle);
+    this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
+    this.raw.setMaxRestarts(o.maxRestarts);
+    this.raw.setRestartSeed(o.restartSeed);
   }
 
   // One solve; the core validates everything and names a bad field in result.message.
@@ -196,6 +230,9 @@ export class Chain {
       finalPositionError: r.finalPositionError,
       finalOrientationError: r.finalOrientationError,
       elapsedUs: r.elapsedUs,
+      budgetExhausted: r.budgetExhausted,
+      restarts: r.restarts,
+      escapes: r.escapes,
       message: r.message,
     };
   }

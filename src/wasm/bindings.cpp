@@ -40,6 +40,9 @@ val result_of(const WebChain& c) {
   out.set("initialOrientationError", r.initial_orientation_error);
   out.set("finalOrientationError", r.final_orientation_error);
   out.set("elapsedUs", r.elapsed_us);
+  out.set("budgetExhausted", r.budget_exhausted);
+  out.set("restarts", r.restarts);
+  out.set("escapes", r.escapes);
   out.set("message", std::string(r.message.c_str()));
   return out;
 }
@@ -98,6 +101,9 @@ EMSCRIPTEN_BINDINGS(ikchain_web) {
       .function("setTolerances", &WebChain::set_tolerances)
       .function("setWarmStart", &WebChain::set_warm_start)
       .function("setMaxStepAngle", &WebChain::set_max_step_angle)
+      .function("setTimeBudgetUsec", &WebChain::set_time_budget_usec)
+      .function("setMaxRestarts", &WebChain::set_max_restarts)
+      .function("setRestartSeed", &WebChain::set_restart_seed)
       .function("solve", &WebChain::solve)
       .function("resetPose", &WebChain::reset_pose)
       .function("result", &result_of)

@@ -11,6 +11,9 @@ export interface RawSolveResult {
   initialOrientationError: number;
   finalOrientationError: number;
   elapsedUs: number;
+  budgetExhausted: boolean;
+  restarts: number;
+  escapes: number;
   message: string;
 }
 
@@ -39,6 +42,9 @@ export interface RawWebChain {
   setTolerances(position: number, orientation: number): void;
   setWarmStart(on: boolean): void;
   setMaxStepAngle(radians: number): void;
+  setTimeBudgetUsec(usec: number): void;
+  setMaxRestarts(n: number): void;
+  setRestartSeed(seed: number): void;
   solve(kind: number): number;
   resetPose(): void;
   result(): RawSolveResult;
