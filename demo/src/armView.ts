@@ -13,6 +13,7 @@ export interface ArmSettings {
   jointType: 'hinge' | 'ball';
   limits: boolean;
   orientation: boolean;
+  restarts: number; // the solve's maxRestarts (0 = off, the core's default)
 }
 
 export const ARM_TOLERANCE = 1e-4; // m (and rad for the hand's rotation)
@@ -74,6 +75,7 @@ export class ArmView {
       positionTolerance: ARM_TOLERANCE,
       orientationTolerance: ARM_TOLERANCE,
       warmStart: true,
+      maxRestarts: settings.restarts,
     });
     const p = this.target.position;
     const q = this.target.quaternion;
@@ -109,4 +111,5 @@ export class ArmView {
   }
 
   get chainTolerance(): number { return ARM_TOLERANCE; }
+  get maxRestarts(): number { return this.chain!.options.maxRestarts; }
 }

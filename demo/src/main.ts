@@ -20,12 +20,14 @@ async function main(): Promise<void> {
   const solverSelect = $<HTMLSelectElement>('solver');
   for (const s of SOLVERS) solverSelect.add(new Option(s.label, s.id));
   const jointsInput = $<HTMLInputElement>('joints');
+  const restartsInput = $<HTMLInputElement>('restarts');
   const settings = (): ArmSettings => ({
     solver: SOLVERS.find((s) => s.id === solverSelect.value)!.kind,
     joints: Number(jointsInput.value),
     jointType: $<HTMLSelectElement>('joint-type').value as 'hinge' | 'ball',
     limits: $<HTMLInputElement>('limits').checked,
     orientation: $<HTMLInputElement>('orientation').checked,
+    restarts: Number(restartsInput.value),
   });
 
   const arm = new ArmView(core, renderer.domElement, settings());
@@ -45,6 +47,7 @@ async function main(): Promise<void> {
 
   const applySettings = () => {
     $('joints-out').textContent = jointsInput.value;
+    $('restarts-out').textContent = restartsInput.value;
     const s = settings();
     missile.solver = s.solver;
     try {
@@ -53,7 +56,7 @@ async function main(): Promise<void> {
       $('live-message').textContent = e instanceof IKError ? e.message : String(e);
     }
   };
-  for (const id of ['solver', 'joints', 'joint-type', 'limits', 'orientation']) $(id).addEventListener('input', applySettings);
+  for (const id of ['solver', 'joints', 'joint-type', 'limits', 'orientation', 'restarts']) $(id).addEventListener('input', applySettings);
   const modeButton = $<HTMLButtonElement>('gizmo-mode');
   const setMode = (mode: 'translate' | 'rotate') => {
     arm.gizmo.setMode(mode);
@@ -93,6 +96,7 @@ async function main(): Promise<void> {
       $('live-error').textContent = `${fmt(r.finalError)} ${unit}`;
       $('live-tolerance').textContent = `${fmt(view === 'arm' ? arm.chainTolerance : 1e-4, 1)} ${unit}`;
       $('live-iterations').textContent = String(r.iterations);
+      $('live-restarts').textContent = String(r.restarts);
       $('live-us').textContent = (view === 'arm' ? arm.meanSolveUs : missile.meanSolveUs).toFixed(1);
       $('live-message').textContent = r.message;
       $('m-aim').textContent = `${(missile.meanAimErrorRad * 180 / Math.PI).toFixed(3)}°`;
@@ -114,7 +118,7 @@ async function main(): Promise<void> {
     get live() {
       const r = arm.lastResult!;
       return { solver: SOLVERS.find((s) => s.kind === settings().solver)!.id, reason: r.reason, error: r.finalError,
-               iterations: r.iterations, tolerance: arm.chainTolerance, usPerSolve: arm.meanSolveUs, message: r.message };
+               iterations: r.iterations, restarts: r.restarts, maxRestarts: arm.maxRestarts, tolerance: arm.chainTolerance, usPerSolve: arm.meanSolveUs, message: r.message };
     },
     get missile() {
       return { shots: missile.shots, hits: missile.hits, meanAimErrorDeg: missile.meanAimErrorRad * 180 / Math.PI, lead: missile.lead };

@@ -120,6 +120,18 @@ try {
   check('orientation goal on: error below tolerance', lo.error <= lo.tolerance, `error ${lo.error.toExponential(2)}`);
   await page.uncheck('#orientation');
 
+  // The restarts slider sets the chain's maxRestarts; the panel shows the solve's restarts.
+  await page.$eval('#restarts', (e) => { e.value = '10'; e.dispatchEvent(new Event('input')); });
+  await drag(-50, 30);
+  const lr = await waitBelowTolerance('dls');
+  await page.waitForTimeout(300); // the panel refreshes every 100 ms
+  const shown = await page.textContent('#live-restarts');
+  const lr2 = await live();
+  check('restarts slider: maxRestarts reaches the chain, the panel shows the restarts, error below tolerance',
+        lr.maxRestarts === 10 && lr.error <= lr.tolerance && shown === String(lr2.restarts),
+        `maxRestarts ${lr.maxRestarts}, restarts ${lr2.restarts} (shown ${shown}), error ${lr.error.toExponential(2)}`);
+  await page.$eval('#restarts', (e) => { e.value = '0'; e.dispatchEvent(new Event('input')); });
+
   // Two-bone on an 8-joint arm: the core refuses with a message naming the problem.
   await page.selectOption('#solver', 'two_bone');
   await drag(40, 40); // a new goal: the target the arm already reached would count as converged
