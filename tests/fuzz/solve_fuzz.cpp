@@ -173,7 +173,9 @@ Errors reference_errors(const Pose& pose, const std::vector<Goal>& goals, double
         const double distance = glm::length(to_point);
         e = distance > on_point ? angle_between(glm::normalize(eff_q * g.aim_axis), to_point) : 0.0;
         if (std::abs(distance - on_point) <= position_slack) {
-          out.cost += 0.5 * g.weight * e * e;  // cost_low counts it as on the point
+          // On the radius: cost takes the angle, cost_low and max_orientation the 0.
+          const double angle = angle_between(glm::normalize(eff_q * g.aim_axis), to_point);
+          out.cost += 0.5 * g.weight * angle * angle;
           continue;
         }
         out.max_orientation = std::max(out.max_orientation, e);
