@@ -221,11 +221,10 @@ TEST(Stuck, MoreIterationsNeverReturnAWorsePose) {
 }
 
 // Reachable goals that no pose meets (a planar chain, a target off its plane): every solver gets
-// stuck again after each escape, spends its budget of escapes (or stops early, see kEscapeGain),
-// reports them, and ends stalled at
-// the in-plane best (FABRIK near it: its hinge conversion has fixed points of its own); the same
-// call gives the same pose, iterations and escapes. Beyond reach (the lecture's precision case)
-// nothing escapes.
+// stuck again after each escape, spends its budget of escapes (without restarts; with them a run
+// may stop early, see kEscapeGain), reports them, and ends stalled at the in-plane best (FABRIK
+// near it: its hinge conversion has fixed points of its own); the same call gives the same pose,
+// iterations and escapes. Beyond reach (the lecture's precision case) nothing escapes.
 TEST(Stuck, EscapesAreBoundedReportedAndDeterministic) {
   const Chain c = test::make_planar_limb(2);
   Workspace ws(c, 1);
@@ -237,22 +236,24 @@ TEST(Stuck, EscapesAreBoundedReportedAndDeterministic) {
     const SolveResult r1 = test::run(kind, c, goals, o, ws, first);
     const SolveResult r2 = test::run(kind, c, goals, o, ws, second);
     EXPECT_EQ(r1.reason, TerminationReason::kStalled) << to_string(kind);
-    // Every escape leads nowhere: the budget is spent, or (FABRIK, whose cost is not monotone)
-    // the run stops once one led only to a slightly lower minimum (stuck::kEscapeGain).
-    EXPECT_GE(r1.escapes, 1) << to_string(kind);
-    EXPECT_LE(r1.escapes, stuck::kMaxEscapes) << to_string(kind);
-    if (kind != SolverKind::kFABRIK) EXPECT_EQ(r1.escapes, stuck::kMaxEscapes) << to_string(kind);
+    // Every escape leads nowhere and, with no restart to take over, the whole budget is spent
+    // (even by FABRIK, whose cost is not monotone: an escape that led only to a slightly lower
+    // minimum stops a run only when restarts follow, stuck::kEscapeGain).
+    EXPECT_EQ(r1.escapes, stuck::kMaxEscapes) << to_string(kind);
     EXPECT_NEAR(r1.final_position_error, 1.0, kind == SolverKind::kFABRIK ? 2e-2 : 1e-4) << to_string(kind);
     EXPECT_EQ(first, second) << to_string(kind);
     EXPECT_EQ(r1.iterations, r2.iterations) << to_string(kind);
     EXPECT_EQ(r1.escapes, r2.escapes) << to_string(kind);
-    // Restarts are the outer layer: each run has its own budget of escapes, and they add up.
+    // Restarts are the outer layer: each run has its own budget of escapes, and they add up; each
+    // run escapes at least once. FABRIK's runs each find a slightly lower minimum after their first
+    // escape and leave the rest to the restarts (stuck::kEscapeGain).
     o.max_restarts = 2;
     Eigen::VectorXd p = Eigen::VectorXd::Constant(c.dof_count(), 0.3);
     const SolveResult rr = test::run(kind, c, goals, o, ws, p);
     EXPECT_EQ(rr.restarts, 2) << to_string(kind);
-    EXPECT_GT(rr.escapes, r1.escapes) << to_string(kind);
+    EXPECT_GE(rr.escapes, 3) << to_string(kind);
     EXPECT_LE(rr.escapes, 3 * stuck::kMaxEscapes) << to_string(kind);
+    if (kind == SolverKind::kFABRIK) EXPECT_LT(rr.escapes, 3 * stuck::kMaxEscapes);
   }
   const Chain straight = test::make_hinge_chain(10);
   Workspace ws10(straight, 1);
