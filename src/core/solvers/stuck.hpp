@@ -3,16 +3,18 @@
 //  - StallRule: the one stall rule. An iteration "counts" when it lowers the best cost seen by
 //    less than stall_tolerance (relative to that best); kStallIterations such iterations in a row
 //    mean the solve is stuck. Measured against the best cost rather than the previous iteration's,
-//    so a method whose cost is not monotone (FABRIK on hinge chains) needs no longer window.
+//    so a method whose cost is not monotone (FABRIK on hinge chains) needs no longer window. It
+//    also tells a creep (kStallIterations iterations in a row each gaining < kCreepGain): still
+//    progress, but for the Newton-like solvers mostly a trap approached slowly (see kCreepGain).
 //  - Escapes: the one stuck -> escape move, and the best pose seen (so an escape that ends worse
 //    never costs the caller anything). A solver calls escape() when the stall rule fires, or on a
 //    condition of its own that means the same (no acceptable step at all, a vanishing gradient, a
 //    sweep that moves nothing); escape() refuses when the budget (kMaxEscapes per solve) is spent
 //    or the goals are provably out of reach (then the stuck pose is the best reach), and the
 //    solver stops as kStalled.
-// When joints rest on their bounds (first and third escape), the move first takes them to the
-// middle of their range: a minimum the bounds hold is a constrained one that no null-space move
-// leaves.
+// When joints rest on their bounds (first and third escape), the move first takes them off (across
+// a full-turn range to the same angle at its other end, else into the range; see unpin()): a
+// minimum the bounds hold is a constrained one that no null-space move leaves.
 // Otherwise the move stays in the null space of J, so to first order it keeps the effectors where
 // they are and changes only the configuration: first a step toward the rest pose (the
 // pseudo-inverse's classic secondary task: Liegeois 1977; Buss 2004, sec. 4), which e.g. untwists a
