@@ -46,7 +46,8 @@ struct SolverOptions {
   // another branch). When a solve ends without meeting its goals and they are not provably out of
   // reach, it is run again from up to max_restarts random poses within the limits, drawn from a
   // generator seeded with restart_seed (the same seed gives the same poses, so the same result);
-  // the best pose over all runs is kept. Iterations and the time budget count every run.
+  // the best pose over all runs is kept. Iterations and the time budget count every run. Without
+  // restarts a run's escapes from stuck poses try harder (docs/solvers.md, "When a solve is stuck").
   int max_restarts = 0;        // >= 0
   unsigned restart_seed = 1;   // any value
 

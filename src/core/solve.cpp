@@ -198,27 +198,12 @@ void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
   project_to_limits(chain, params);
 }
 
-// Moves every hinge resting on a bound (within kOnBoundFraction of its range) whose bound +- 2 pi
-// also lies in its range across to that value: the same pose, so the same tip, but on the other side
-// of the wall. A hinge whose range spans a full turn (UR arms: +-pi) stops on a bound when its
-// solution lies just beyond it, i.e. just inside the opposite end; from the wrapped value the same
-// gradient leads into it. Returns whether any hinge moved.
-constexpr double kOnBoundFraction = 1e-6;
+// Moves every hinge resting on a bound whose bound +- 2 pi also lies in its range across to that
+// value (stuck::wrap_across_bound: the same pose on the other side of the wall). Returns whether any
+// hinge moved.
 bool wrap_bound_hinges(const Chain& chain, double* params) {
   bool moved = false;
-  for (int i = 0; i < chain.joint_count(); ++i) {
-    if (chain.joint_type(i) != JointType::kHinge || !chain.limits(i).has_hinge_limit) continue;
-    const JointLimits& l = chain.limits(i);
-    const double range = l.hinge_max - l.hinge_min, slack = kOnBoundFraction * range;
-    double& q = params[chain.dof_offset(i)];
-    if (q <= l.hinge_min + slack && q + 2.0 * so3::kPi <= l.hinge_max + slack) {
-      q = std::min(q + 2.0 * so3::kPi, l.hinge_max);
-      moved = true;
-    } else if (q >= l.hinge_max - slack && q - 2.0 * so3::kPi >= l.hinge_min - slack) {
-      q = std::max(q - 2.0 * so3::kPi, l.hinge_min);
-      moved = true;
-    }
-  }
+  for (int i = 0; i < chain.joint_count(); ++i) moved = stuck::wrap_across_bound(chain, i, params) || moved;
   return moved;
 }
 

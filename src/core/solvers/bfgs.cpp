@@ -35,7 +35,8 @@
 // space of J pulls the tip toward the root at second order. A stationary point with error left,
 // the shared stall rule, or a line search that fails even from a fresh Gauss-Newton step call the
 // shared escape, and the descent goes on from the moved pose with a new H; with no escape left the
-// solve stops as stalled at the best pose seen.
+// solve stops as stalled at the best pose seen. Steps that creep (the stall rule's creeping()) call
+// the escape too when no restart follows, and with none left the descent goes on.
 //
 // Limits (a bounded variant of projection, documented choice). Hinge DOFs sitting on a bound with
 // the gradient pushing outward are frozen (removed from the direction, and from J for the
@@ -501,6 +502,7 @@ SolverStatus Bfgs::run() {
       if (escape()) continue;
       break;
     }
+    if (stall_.creeping() && escapes_.creep_is_stuck(x_.data()) && escape()) continue;  // else creeping goes on
   }
   status.iterations = it;
   status.escapes = escapes_.used();

@@ -20,6 +20,8 @@
 // acceptable step, or a vanishing gradient with error left (a singular stationary point, where
 // every damped step is zero). Each calls the shared escape; with none left the solve stops as
 // "stalled" at the best pose seen - solve() turns a stall at a best reach into kUnreachable.
+// Accepted steps that creep (the stall rule's creeping()) call the escape too when no restart
+// follows; with none left the solve goes on.
 #include <algorithm>
 #include <cmath>
 
@@ -142,6 +144,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
         status.reason = TerminationReason::kStalled;
         break;
       }
+      if (stall.creeping() && escapes.creep_is_stuck(params) && escape()) continue;  // else creeping goes on
       model.linearize(params);
       const double rho = predicted > 0.0 ? gain / predicted : 0.0;
       const double r = 2.0 * rho - 1.0;

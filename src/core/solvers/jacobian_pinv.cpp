@@ -32,9 +32,11 @@
 // down needs a large move (e.g. untwisting joint 1 by ~1 rad). Truncated steps promise nothing,
 // the full step passes the residual check only at a tiny fraction of its length, and every
 // iteration gains a little more than stall_tolerance: the solve creeps to max_iterations. So
-// besides the stall rule, kStallIterations accepted steps in a row that each lower the cost by
-// less than kCreepGain of it also count as stuck; the shared escape's null-space step toward rest
-// (stuck.hpp) then changes the configuration.
+// besides the stall rule, creeping (the shared stall rule's creeping(): kStallIterations accepted
+// steps in a row that each lower the cost by less than stuck::kCreepGain of it) also counts as
+// stuck, with or without limits and restarts (DLS and BFGS, whose steps do not follow that flow,
+// escape a creep only in a minimum the limits hold, stuck::Escapes::creep_is_stuck); the shared
+// escape's null-space step toward rest (stuck.hpp) then changes the configuration.
 //
 // Iterations count accepted (or final failed) steps and escapes; each costs one FK per halving
 // tried. Stuck (stuck.hpp): no halving decreases the cost, the stall rule, creeping (above), or a
@@ -67,11 +69,6 @@ constexpr int kTruncationLevels = sizeof(kTruncation) / sizeof(kTruncation[0]);
 // A step accepted at this fraction of the full one or more is good enough: no truncation tried.
 constexpr double kGoodFraction = 1.0 / 8.0;
 
-// An accepted step "creeps" when it lowers the cost by less than this fraction of it; the shared
-// stall window (stuck::kStallIterations) of creeping steps in a row is a singular saddle (above;
-// the value: docs/solvers.md, "Why these constants").
-constexpr double kCreepGain = 1e-2;
-
 template <class Model>
 SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOptions& o, Workspace& ws,
                       Model& model, double* params, bool target_clamped) {
@@ -90,7 +87,6 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
   model.linearize(params);
   double fraction = 1.0;  // the last accepted de / e
   stuck::StallRule stall(model.cost());
-  int creeping = 0;
   stuck::Escapes escapes(chain, goals, o, ws);
   // Clamped, the target is the best reach of a goal beyond it: being stuck there is no trap.
   if (target_clamped) escapes.disable();
@@ -101,7 +97,6 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     model.accept();
     model.linearize(params);
     fraction = 1.0;
-    creeping = 0;
     stall.reset(model.cost());
     return true;
   };
@@ -201,10 +196,8 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
       status.reason = TerminationReason::kConverged;
       break;
     }
-    const double gain = cost - model.cost();
-    creeping = gain <= kCreepGain * cost ? creeping + 1 : 0;
     const bool stalled = stall.stalled_after(model.cost(), o.stall_tolerance);
-    if ((stalled || creeping >= stuck::kStallIterations) && escape()) continue;
+    if ((stalled || stall.creeping()) && escape()) continue;
     if (stalled) {  // creeping alone, with no escape left, goes on: it is still progress
       status.reason = TerminationReason::kStalled;
       break;

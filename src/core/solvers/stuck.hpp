@@ -3,16 +3,18 @@
 //  - StallRule: the one stall rule. An iteration "counts" when it lowers the best cost seen by
 //    less than stall_tolerance (relative to that best); kStallIterations such iterations in a row
 //    mean the solve is stuck. Measured against the best cost rather than the previous iteration's,
-//    so a method whose cost is not monotone (FABRIK on hinge chains) needs no longer window.
+//    so a method whose cost is not monotone (FABRIK on hinge chains) needs no longer window. It
+//    also tells a creep (kStallIterations iterations in a row each gaining < kCreepGain): still
+//    progress, but for the Newton-like solvers mostly a trap approached slowly (see kCreepGain).
 //  - Escapes: the one stuck -> escape move, and the best pose seen (so an escape that ends worse
 //    never costs the caller anything). A solver calls escape() when the stall rule fires, or on a
 //    condition of its own that means the same (no acceptable step at all, a vanishing gradient, a
 //    sweep that moves nothing); escape() refuses when the budget (kMaxEscapes per solve) is spent
 //    or the goals are provably out of reach (then the stuck pose is the best reach), and the
 //    solver stops as kStalled.
-// When joints rest on their bounds (first and third escape), the move first takes them to the
-// middle of their range: a minimum the bounds hold is a constrained one that no null-space move
-// leaves.
+// When joints rest on their bounds (first and third escape), the move first takes them off (across
+// a full-turn range to the same angle at its other end, else into the range; see unpin()): a
+// minimum the bounds hold is a constrained one that no null-space move leaves.
 // Otherwise the move stays in the null space of J, so to first order it keeps the effectors where
 // they are and changes only the configuration: first a step toward the rest pose (the
 // pseudo-inverse's classic secondary task: Liegeois 1977; Buss 2004, sec. 4), which e.g. untwists a
@@ -46,12 +48,21 @@ namespace stuck {
 
 // Iterations in a row without a relative improvement of stall_tolerance that make a solve stuck.
 constexpr int kStallIterations = 3;
+// An iteration of a Newton-like solver (the pseudo-inverse, DLS, BFGS) "creeps" when it lowers the
+// best cost by less than this fraction of it; kStallIterations creeping iterations in a row are
+// stuck too when no restart follows (Escapes::creep_is_stuck). Their steps converge superlinearly
+// near a regular solution; a run of gains this small is mostly a singular saddle or a minimum held
+// by the limits, approached along a flat valley or a bound (sublinearly: the stall tolerance's
+// 1e-10 per iteration is never reached, and max_iterations runs out). CCD and FABRIK converge
+// linearly and do not ask (the value: docs/solvers.md, "Why these constants").
+constexpr double kCreepGain = 1e-2;
 // Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape).
 constexpr int kMaxEscapes = 4;
 // An escape pays off when the solve then gets below kEscapeGain times the best cost before it. One
 // that led to a lower but not that much lower minimum found a nearby trap, and so would another:
-// the solve stops there (and the restarts, the outer layer, take over) instead of creeping on to
-// max_iterations. One that found nothing lower at all (fell back into the same saddle) may retry.
+// when restarts are allowed (SolverOptions::max_restarts), the solve stops there and the restarts,
+// the outer layer, take over. Without them nothing would: the escapes go on to kMaxEscapes. One
+// that found nothing lower at all (fell back into the same saddle) may retry either way.
 constexpr double kEscapeGain = 0.5;
 // The null-space step's pseudo-inverse drops singular values below this fraction of |J|, so the
 // nearly singular direction the residual is stuck in counts as free.
@@ -59,6 +70,9 @@ constexpr double kEscapeTruncation = 1e-2;
 // A null-space step turning no DOF more than this (rad) means the pose is already at rest in every
 // free direction: the kick is used instead.
 constexpr double kMinEscapeAngle = 1e-3;
+// The third escape's off-the-bounds move takes a joint resting on a bound this fraction of its range
+// toward the other bound (the first: half; docs/solvers.md, "Why these constants").
+constexpr double kSecondUnpinFraction = 0.75;
 // The kick's amplitude per DOF (rad; metres for a slide): small enough to undo in a step or two.
 constexpr double kKickAmplitude = 0.15;
 
@@ -117,6 +131,34 @@ inline bool is_singular_stationary(double gradient_norm2, double jacobian_norm, 
 }
 
 // ------------------------------------------------------------------------------------------------
+// Full-turn bounds.
+
+// A hinge within this fraction of its range from a bound rests on it, for wrap_across_bound (URDF
+// ranges of "a full turn" are written with a rounded pi, a few 1e-6 short of 2 pi).
+constexpr double kOnBoundFraction = 1e-6;
+
+// When hinge `joint` rests on a bound and that bound +- 2 pi also lies in its range, moves it across
+// to that value and returns true: the same pose, so the same effectors, but on the other side of the
+// wall. A hinge whose range spans a full turn (UR arms: +-pi) stops on a bound when its solution
+// lies just beyond it, i.e. just inside the opposite end; from the wrapped value the same gradient
+// leads into it. The escapes' off-the-bounds move and the restarts (solve.cpp) both use it.
+inline bool wrap_across_bound(const Chain& chain, int joint, double* params) {
+  if (chain.joint_type(joint) != JointType::kHinge || !chain.limits(joint).has_hinge_limit) return false;
+  const JointLimits& l = chain.limits(joint);
+  const double range = l.hinge_max - l.hinge_min, slack = kOnBoundFraction * range;
+  double& q = params[chain.dof_offset(joint)];
+  if (q <= l.hinge_min + slack && q + 2.0 * so3::kPi <= l.hinge_max + slack) {
+    q = std::min(q + 2.0 * so3::kPi, l.hinge_max);
+    return true;
+  }
+  if (q >= l.hinge_max - slack && q - 2.0 * so3::kPi >= l.hinge_min - slack) {
+    q = std::max(q - 2.0 * so3::kPi, l.hinge_min);
+    return true;
+  }
+  return false;
+}
+
+// ------------------------------------------------------------------------------------------------
 // The stall rule.
 class StallRule {
  public:
@@ -125,19 +167,27 @@ class StallRule {
   void reset(double cost) {
     best_ = cost;
     small_ = 0;
+    slow_ = 0;
   }
   // After an iteration that ended at `cost`: true when kStallIterations iterations in a row lowered
   // the best cost by no more than `tolerance` (stall_tolerance) times it. NaN never improves.
   bool stalled_after(double cost, double tolerance) {
     const bool improved = std::isfinite(best_) ? best_ - cost > tolerance * best_ : cost < best_;
+    const bool fast = std::isfinite(best_) ? best_ - cost > kCreepGain * best_ : cost < best_;
     if (cost < best_) best_ = cost;
     small_ = improved ? 0 : small_ + 1;
+    slow_ = fast ? 0 : slow_ + 1;
     return small_ >= kStallIterations;
   }
+  // True when the last kStallIterations iterations each lowered the best cost by less than
+  // kCreepGain of it: a creep, still progress, so the solver escapes when Escapes::creep_is_stuck()
+  // and it can, and otherwise goes on.
+  bool creeping() const { return slow_ >= kStallIterations; }
 
  private:
   double best_ = INFINITY;
   int small_ = 0;
+  int slow_ = 0;
 };
 
 // ------------------------------------------------------------------------------------------------
@@ -152,6 +202,19 @@ class Escapes {
   void disable() { state_ = kOutOfReach; }
 
   int used() const { return used_; }
+
+  // Whether a creeping run (StallRule::creeping) at params is stuck in a minimum the limits hold:
+  // some hinge or slide rests on a bound (the off-the-bounds move then frees it) and no restart
+  // follows (max_restarts 0), so the escapes are the only way out. Elsewhere a creep may be a slow
+  // approach that still ends within tolerance (near a singular solution), and with restarts the
+  // run goes on and leaves a failure to them (docs/solvers.md, "When a solve is stuck").
+  bool creep_is_stuck(const double* params) const {
+    if (restarts_follow()) return false;
+    const int active = jacobian::active_dof_count(chain_, goals_);
+    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i)
+      if (hinge_blocked(chain_, i, params, -1.0) || hinge_blocked(chain_, i, params, 1.0)) return true;
+    return false;
+  }
 
   // Keeps params as the best pose when `cost` beats every pose offered before.
   void offer(const double* params, double cost) {
@@ -176,7 +239,9 @@ class Escapes {
     if (state_ == kUnknown)
       state_ = provably_out_of_reach(chain_, goals_, options_.position_tolerance) ? kOutOfReach : kReachable;
     if (state_ == kOutOfReach || used_ >= kMaxEscapes) return false;
-    if (used_ > 0 && best_cost_ < best_at_escape_ && !(best_cost_ < kEscapeGain * best_at_escape_)) return false;
+    if (restarts_follow() && used_ > 0 && best_cost_ < best_at_escape_ &&
+        !(best_cost_ < kEscapeGain * best_at_escape_))
+      return false;
     best_at_escape_ = best_cost_;
     ++used_;
     const int n = chain_.dof_count();
@@ -222,6 +287,7 @@ class Escapes {
 
  private:
   enum State { kUnknown, kReachable, kOutOfReach };
+  bool restarts_follow() const { return options_.max_restarts > 0; }
   double best_at_escape_ = INFINITY;  // best_cost_ when the last escape was made
 
   // J (top rows of ws.jacobian) and the weighted residual (ws.residual) at params.
@@ -307,16 +373,23 @@ class Escapes {
     }
   }
 
-  // Moves every limited hinge or slide resting on a bound to the middle of its range (nearer
-  // fractions of the range left more of the real arms' pinned minima); true when that moved any.
+  // Moves every limited hinge or slide resting on a bound off it: across a full-turn range to the
+  // same angle at its other end (wrap_across_bound: the bound was the only thing in the way), else
+  // to the middle of its range on the first escape (nearer fractions of the range left more of the
+  // real arms' pinned minima) and, on the third, three quarters of the way to its other bound (the
+  // middle led back to this minimum once; the same move would again). True when it moved any.
   bool unpin(int active, double* params) const {
     bool moved = false;
     for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+      const bool low = hinge_blocked(chain_, i, params, -1.0);
+      if (!low && !hinge_blocked(chain_, i, params, 1.0)) continue;
+      moved = true;
+      if (wrap_across_bound(chain_, i, params)) continue;
       const JointLimits& l = chain_.limits(i);
-      if (hinge_blocked(chain_, i, params, -1.0) || hinge_blocked(chain_, i, params, 1.0)) {
-        params[chain_.dof_offset(i)] = 0.5 * (l.hinge_min + l.hinge_max);
-        moved = true;
-      }
+      const double toward_other_end = used_ >= 3 ? kSecondUnpinFraction : 0.5;
+      params[chain_.dof_offset(i)] =
+          low ? l.hinge_min + toward_other_end * (l.hinge_max - l.hinge_min)
+              : l.hinge_max - toward_other_end * (l.hinge_max - l.hinge_min);
     }
     return moved;
   }
