@@ -67,6 +67,7 @@ test('restarts: full poses a single run leaves unsolved on the limited arm conve
   arm.setOptions({ positionTolerance: tolerance, orientationTolerance: 1e-4 });
   const poses = fullPoses(arm, 40, 12345);
   let unsolvedAlone = 0;
+  let restarted = 0;
   for (const kind of NEWTON) {
     for (const goals of poses) {
       arm.setGoals(goals);
@@ -77,15 +78,14 @@ test('restarts: full poses a single run leaves unsolved on the limited arm conve
       const { r, p } = solveFrom(arm, MIDDLE, kind);
       const what = `${SolverKind[kind]}, goal ${goals[0].kind === 'position' ? goals[0].target : ''}`;
       assert.equal(r.reason, 'converged', `${what}: ${r.reason} after ${r.restarts} restarts`);
-      if (alone.reason === 'converged') {
-        // The first run is the same run: nothing to restart.
+      if (alone.reason === 'converged' && alone.escapes === 0) {
+        // The first run is the same run: nothing to restart. (A run that escaped may run otherwise
+        // when restarts follow: the core then leaves a creep or a nearby trap to them.)
         assert.equal(r.restarts, 0, what);
         assert.equal(r.iterations, alone.iterations, what);
-      } else {
-        ++unsolvedAlone;
-        assert.ok(r.restarts > 0, `${what}: converged with restarts but reported none`);
-        assert.ok(r.iterations > alone.iterations, `${what}: the restarts' iterations are counted`);
       }
+      if (alone.reason !== 'converged') ++unsolvedAlone;
+      if (r.restarts > 0) ++restarted;
       p.forEach((v, i) => assert.ok(v >= LOWER[i] - 1e-9 && v <= UPPER[i] + 1e-9, `${what}: joint ${i} at ${v}`));
       // The core's claim, checked by its forward kinematics from the returned params.
       const f = arm.frames();
@@ -93,7 +93,8 @@ test('restarts: full poses a single run leaves unsolved on the limited arm conve
       assert.ok(goals[1].kind === 'orientation' && angle(f.joints[6].quaternion, goals[1].quaternion) <= 1e-4 + 1e-9, what);
     }
   }
-  assert.ok(unsolvedAlone >= 3, `only ${unsolvedAlone} runs needed restarts: the case no longer exercises them`);
+  assert.ok(unsolvedAlone >= 3 && restarted >= 3,
+            `${unsolvedAlone} runs unsolved alone, ${restarted} restarted: the case no longer exercises restarts`);
   arm.dispose();
 });
 
