@@ -33,13 +33,19 @@
 //    stage (a sub-base, sec. 5; several goals on one effector pin it to their weighted mean). Goal
 //    weights only matter between goals on the same effector.
 //  - orientation, aim and aim-at goals on the tip (the tip frame, chain.hpp) are pursued the way
-//    FABRIK's orientation extensions do it: an orientation goal T fixes where the last joint must
-//    be, o_{n-1} = tip - T conj(tip_rotation) tip_offset, so the forward stage pins p_{n-1} there
-//    (after the tip; the heaviest such goal wins); after the backward stage the last joint takes
-//    the rotation that best serves every tip goal (CCD's per-joint fit, geometric::fit_joint:
-//    the twist about the last bone and any aim). On an intermediate effector they are rejected
-//    (kInvalidInput, the message names the goal): turning a middle joint to an orientation would
-//    move everything after it, which FABRIK's stages do not model. Use CCD or the Jacobian solvers.
+//    FABRIK's orientation extensions do it: an orientation goal T fixes the last joint's frame,
+//    F = T conj(tip_rotation) (the heaviest such goal wins), hence where the last joint must be,
+//    o_{n-1} = tip - F tip_offset, so the forward stage pins p_{n-1} there (after the tip). For a
+//    last hinge F also fixes its axis, F hinge_axis, which the frame before it carries: the forward
+//    stage pins p_{n-2} on its circle about that axis (last_hinge_circle_pin), and the backward
+//    stage fits one more point, on the axis at axis_point_distance() from o_{n-1}, into every
+//    joint before it. Without them a tool frame on the last hinge's origin (tip_offset 0, the
+//    xArm7) left the orientation to the last joint's twist alone (docs/solvers.md). After the
+//    backward stage the last joint takes the rotation that best serves every tip goal (CCD's
+//    per-joint fit, geometric::fit_joint: the twist about its axis and any aim). On an
+//    intermediate effector they are rejected (kInvalidInput, the message names the goal): turning
+//    a middle joint to an orientation would move everything after it, which FABRIK's stages do
+//    not model. Use CCD or the Jacobian solvers.
 // Termination: converged on tolerance; stalled when stuck with no escape left (the shared stall
 // rule measures progress against the best cost, so FABRIK's non-monotone cost on hinge chains
 // needs no window of its own); otherwise the budget. The best pose seen is returned.
@@ -70,8 +76,9 @@ bool pinned_target(const Chain& chain, Span<const Goal> goals, int k, glm::dvec3
   return true;
 }
 
-// Where the heaviest tip orientation goal puts the last joint's origin, given the tip at `tip`.
-bool last_joint_pin(const Chain& chain, Span<const Goal> goals, const glm::dvec3& tip, glm::dvec3& out) {
+// The last joint's frame Q_{n-1} = T conj(tip_rotation) that the heaviest tip orientation goal T
+// asks for; false when there is none.
+bool last_frame_target(const Chain& chain, Span<const Goal> goals, glm::dquat& out) {
   const int n = chain.joint_count();
   const Goal* heaviest = nullptr;
   for (int g = 0; g < goals.size; ++g)
@@ -79,21 +86,55 @@ bool last_joint_pin(const Chain& chain, Span<const Goal> goals, const glm::dvec3
         (!heaviest || goals[g].weight > heaviest->weight))
       heaviest = &goals[g];
   if (!heaviest) return false;
-  const glm::dquat last_frame = glm::normalize(heaviest->target_orientation) * glm::conjugate(chain.tip_rotation());
-  out = tip - last_frame * chain.tip_offset();
+  out = glm::normalize(heaviest->target_orientation) * glm::conjugate(chain.tip_rotation());
   return true;
 }
 
-// Forward reaching stage into ws.points_b[1..n] from the current points ws.points_a.
-void forward_reaching(const Chain& chain, Span<const Goal> goals, Workspace& ws) {
+// How far along the last hinge's axis (from its origin) the point standing for the axis's direction
+// lies: the mean bone length, so in the backward stage's least-squares fits it counts like the
+// chain's own points.
+double axis_point_distance(const Chain& chain) { return chain.total_length() / chain.joint_count(); }
+
+// p_{n-2} pinned for a last hinge whose axis the orientation goal fixes (last_frame, in base):
+// o_{n-2} = o_{n-1} - pre_{n-1} u with u = conj(rest_rotation) offset_translation of the last joint,
+// and pre_{n-1} = Q_{n-1} R(axis, -theta): a circle about the target axis through o_{n-1}. The pin
+// is its point nearest the old p_{n-2} (the forward stage's "pull toward the old position").
+glm::dvec3 last_hinge_circle_pin(const Chain& chain, const glm::dquat& last_frame, const glm::dvec3& last_origin,
+                                 const glm::dvec3& old_point, const glm::dvec3& old_last_origin) {
+  const int j = chain.joint_count() - 1;
+  const glm::dvec3 axis_local = chain.hinge_axis(j);
+  const glm::dvec3 u = glm::conjugate(chain.rest_rotation(j)) * chain.offset_translation(j);
+  const double along = glm::dot(u, axis_local);
+  const double radius = glm::length(u - axis_local * along);
+  const glm::dvec3 axis = last_frame * axis_local;
+  const glm::dvec3 center = last_origin - axis * along;
+  glm::dvec3 out_dir;
+  if (!geometric::perpendicular_part(old_point - center, axis, 1e-12 * chain.total_length(), out_dir) &&
+      !geometric::perpendicular_part(old_point - old_last_origin, axis, 1e-12 * chain.total_length(), out_dir))
+    out_dir = geometric::any_perpendicular(axis);
+  return center + out_dir * radius;
+}
+
+// Forward reaching stage into ws.points_b[1..n] from the current points ws.points_a. `last_frame`:
+// the last joint's target frame (last_frame_target), or null.
+void forward_reaching(const Chain& chain, Span<const Goal> goals, const glm::dquat* last_frame, Workspace& ws) {
   const int n = chain.joint_count();
   const glm::dvec3* a = ws.points_a.data();
   glm::dvec3* b = ws.points_b.data();
   if (!pinned_target(chain, goals, n, b[n])) b[n] = a[n];
+  const bool last_hinge = chain.joint_type(n - 1) == JointType::kHinge;
   for (int i = n - 1; i >= 1; --i) {
     glm::dvec3 pin;
-    if (pinned_target(chain, goals, i, pin) || (i == n - 1 && last_joint_pin(chain, goals, b[n], pin))) {
+    if (pinned_target(chain, goals, i, pin)) {
       b[i] = pin;
+      continue;
+    }
+    if (last_frame && i == n - 1) {  // the tip offset seen from the target frame
+      b[i] = b[n] - *last_frame * chain.tip_offset();
+      continue;
+    }
+    if (last_frame && last_hinge && i == n - 2) {
+      b[i] = last_hinge_circle_pin(chain, *last_frame, b[n - 1], a[i], a[n - 1]);
       continue;
     }
     glm::dvec3 dir = a[i] - b[i + 1];
@@ -116,6 +157,9 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
   const int n = chain.joint_count();
   bool tip_frame_goals = false;
   for (int g = 0; g < goals.size; ++g) tip_frame_goals = tip_frame_goals || goals[g].kind != GoalKind::kPosition;
+  glm::dquat last_frame;
+  const bool has_last_frame = last_frame_target(chain, goals, last_frame);
+  const bool fit_last_axis = has_last_frame && chain.joint_type(n - 1) == JointType::kHinge;
   geometric::Tracked tracked[kMaxGoals];
   geometric::Progress progress(chain, goals, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;
@@ -125,10 +169,18 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
     } else {
       for (int k = 0; k < n; ++k) ws.points_a[k] = ws.joint_origins[k];
       ws.points_a[n] = ws.tip;
-      forward_reaching(chain, goals, ws);
+      forward_reaching(chain, goals, has_last_frame ? &last_frame : nullptr, ws);
     }
     std::copy(params, params + chain.dof_count(), ws.params_trial.data());
-    geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params);
+    geometric::PointPair axis_point;  // the last hinge's axis: where it is, where the goal wants it
+    if (fit_last_axis) {
+      const double d = axis_point_distance(chain);
+      axis_point.old_in_base = ws.joint_origins[n - 1] +
+                               geometric::hinge_axis_in_base(chain, n - 1, ws.joint_pre_rotations[n - 1]) * d;
+      axis_point.desired_in_base = ws.points_b[n - 1] + last_frame * chain.hinge_axis(n - 1) * d;
+    }
+    geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params,
+                                   fit_last_axis ? &axis_point : nullptr);
     if (tip_frame_goals) {  // final alignment of the last joint (see above)
       forward_kinematics(chain, params, ws);
       geometric::track_goals(chain, goals, ws, tracked);

@@ -164,6 +164,11 @@ struct PointSums {
   }
 };
 
+// A point where it is in the pose on entry and where it should be (aim_chain_at_points).
+struct PointPair {
+  glm::dvec3 old_in_base{0.0}, desired_in_base{0.0};
+};
+
 // Root-to-tip pass: each joint j in turn is rotated so that the chain after it best follows the
 // desired points `desired[k]` (k = 1..n: joint origins o_k, desired[n] = the tip), with the joints
 // before it already updated. Ball joints get the minimal rotation taking the bone o_j -> o_{j+1}
@@ -178,16 +183,22 @@ struct PointSums {
 // Alg. 1) fused with the conversion of positions to joint parameters; with every desired point
 // equal to one target it straightens the chain toward it (the optimum for an out-of-reach target).
 //
+// `last_link_point` (optional) is one more pair, a point rigid with the last joint's frame (after
+// every joint) where it is in the old pose and where it should be: it joins every hinge's fit and
+// the ball twist, for what the chain's own points cannot say (FABRIK: the last hinge's axis).
+//
 // Needs ws filled by forward_kinematics(params) on entry (the "old" pose: the parts of the chain
 // after joint j are moved rigidly with it). Leaves ws stale; call forward_kinematics() after.
 inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dvec3* desired,
-                                double max_step_angle, double* params) {
+                                double max_step_angle, double* params,
+                                const PointPair* last_link_point = nullptr) {
   const int n = chain.joint_count();
   const double tiny = 1e-12 * chain.total_length();
   const glm::dvec3 root = chain.root_in_base();
   auto old_point = [&](int k) -> const glm::dvec3& { return k < n ? ws.joint_origins[k] : ws.tip; };
   PointSums sums;
   for (int k = 1; k <= n; ++k) sums.add(old_point(k) - root, desired[k] - root, 1.0);
+  if (last_link_point) sums.add(last_link_point->old_in_base - root, last_link_point->desired_in_base - root, 1.0);
   glm::dvec3 origin = root;               // o_j of the updated chain
   glm::dquat parent(1.0, 0.0, 0.0, 0.0);  // Q_{j-1} of the updated chain
   for (int j = 0; j < n; ++j) {
