@@ -285,6 +285,55 @@ void project_to_limits(const Chain& chain, double* params) {
   for (int i = 0; i < chain.joint_count(); ++i) project_joint_to_limits(chain, i, params);
 }
 
+namespace {
+
+// Which of ball `joint`'s limits it rests on at params (within kOnBound rad), and its rotation.
+struct BallBounds {
+  bool on_cone = false, at_max = false, at_min = false;
+  glm::dvec3 r{0.0};
+  glm::dquat q{1.0, 0.0, 0.0, 0.0};
+  bool any() const { return on_cone || at_max || at_min; }
+};
+
+BallBounds ball_bounds(const Chain& chain, int joint, const double* params) {
+  BallBounds bounds;
+  if (chain.joint_type(joint) != JointType::kBall || !chain.has_limits(joint)) return bounds;
+  const JointLimits& l = chain.limits(joint);
+  constexpr double kOnBound = 1e-10;  // rad; the projection's exp/log round trip leaves ~1e-15
+  const int o = chain.dof_offset(joint);
+  const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
+  bounds.r = r;
+  // The common case first, without trigonometry: neither the swing angle nor |twist| exceeds the
+  // rotation angle, itself at most |r| (cos(angle / 2) = cos(swing / 2) cos(twist / 2)).
+  const double angle = glm::length(r);
+  if ((!l.has_cone_limit || angle < l.cone_angle - kOnBound) &&
+      (!l.has_twist_limit || (angle < l.twist_max - kOnBound && -angle > l.twist_min + kOnBound)))
+    return bounds;
+  const glm::dquat q = so3::exp(r);
+  bounds.q = q;
+  const glm::dvec3& a = l.twist_axis;
+  // Which bounds it rests on, from the quaternion: the swing is the rotation left after the twist
+  // (w, (v . a) a) / n, so sin^2(swing / 2) = 1 - n^2; the twist angle as so3::swing_twist's.
+  const double along_axis = q.x * a.x + q.y * a.y + q.z * a.z;
+  const double swing_limit = 0.5 * (l.cone_angle - kOnBound);
+  bounds.on_cone = l.has_cone_limit && swing_limit > 0.0 &&
+                   1.0 - q.w * q.w - along_axis * along_axis >= std::sin(swing_limit) * std::sin(swing_limit);
+  if (l.has_twist_limit) {
+    glm::dquat swing;
+    double twist = 0.0;
+    so3::swing_twist(q, a, swing, twist);
+    bounds.at_max = twist >= l.twist_max - kOnBound;
+    bounds.at_min = twist <= l.twist_min + kOnBound;
+  }
+  return bounds;
+}
+
+}  // namespace
+
+bool ball_on_boundary(const Chain& chain, int joint, const double* params) {
+  return ball_bounds(chain, joint, params).any();
+}
+
 int ball_blocked(const Chain& chain, int joint, const double* params, const double* direction,
                  glm::dvec3 normals[2]) {
   if (chain.joint_type(joint) != JointType::kBall || !chain.has_limits(joint)) return 0;
@@ -292,32 +341,12 @@ int ball_blocked(const Chain& chain, int joint, const double* params, const doub
   const glm::dvec3 d(direction[0], direction[1], direction[2]);
   const double tolerance = 1e-9 * glm::length(d);
   if (!(tolerance > 0.0)) return 0;
-  constexpr double kOnBound = 1e-10;  // rad; the projection's exp/log round trip leaves ~1e-15
-  const int o = chain.dof_offset(joint);
-  const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
-  // The common case first, without trigonometry: neither the swing angle nor |twist| exceeds the
-  // rotation angle, itself at most |r| (cos(angle / 2) = cos(swing / 2) cos(twist / 2)).
-  const double angle = glm::length(r);
-  if ((!l.has_cone_limit || angle < l.cone_angle - kOnBound) &&
-      (!l.has_twist_limit || (angle < l.twist_max - kOnBound && -angle > l.twist_min + kOnBound)))
-    return 0;
-  const glm::dquat q = so3::exp(r);
+  const BallBounds bounds = ball_bounds(chain, joint, params);
+  if (!bounds.any()) return 0;
+  const bool on_cone = bounds.on_cone, at_max = bounds.at_max, at_min = bounds.at_min;
+  const glm::dvec3& r = bounds.r;
+  const glm::dquat& q = bounds.q;
   const glm::dvec3& a = l.twist_axis;
-  // Which bounds it rests on, from the quaternion: the swing is the rotation left after the twist
-  // (w, (v . a) a) / n, so sin^2(swing / 2) = 1 - n^2; the twist angle as so3::swing_twist's.
-  const double along_axis = q.x * a.x + q.y * a.y + q.z * a.z;
-  const double swing_limit = 0.5 * (l.cone_angle - kOnBound);
-  const bool on_cone = l.has_cone_limit && swing_limit > 0.0 &&
-                       1.0 - q.w * q.w - along_axis * along_axis >= std::sin(swing_limit) * std::sin(swing_limit);
-  bool at_max = false, at_min = false;
-  if (l.has_twist_limit) {
-    glm::dquat swing;
-    double twist = 0.0;
-    so3::swing_twist(q, a, swing, twist);
-    at_max = twist >= l.twist_max - kOnBound;
-    at_min = twist <= l.twist_min + kOnBound;
-  }
-  if (!on_cone && !at_max && !at_min) return 0;
   // Outward normals in angular-velocity space, then d(angle)/d(r) = J_l(r)^T g, since
   // w = J_l(r) dr. The swing normal is undefined at zero swing (the projection holds a zero cone)
   // and the twist's at a half-turn swing (the twist itself is undefined there).

@@ -112,6 +112,8 @@ inline bool hinge_blocked(const Chain& chain, int joint, const double* params, d
 // returns 0 when nothing blocks. A step freed of these components slides along the boundary.
 int ball_blocked(const Chain& chain, int joint, const double* params, const double* direction,
                  glm::dvec3 normals[2]);
+// True when ball `joint` rests on its cone or a twist bound (ball_blocked's test, whatever the step).
+bool ball_on_boundary(const Chain& chain, int joint, const double* params);
 // Removes the component along unit `normal` (rotation-vector space) from the 3 DOF columns
 // o..o+2 of the first `rows` rows of `jacobian`, J <- J (I - n n^T): a minimum-norm or damped step
 // solved over the result has no component along n. For a hinge the same is zeroing its column.

@@ -158,6 +158,27 @@ TEST(BallLimits, ConvergesWhereProjectionStalled) {
   }
 }
 
+// BFGS from starts with every joint on a limit, position goals, no restarts: where the shoulder
+// and the wrist rest on their cone (and twist) boundary, every step is projected, so each is a
+// fresh Gauss-Newton step over the reduced Jacobian that zig-zags along the curved boundary with
+// ever smaller gains (a creep). Counting a ball on its boundary as a minimum the limits hold lets
+// the creep escape; before, 3 of these 130 solves ran to max_iterations (trials 7, 61, 124).
+TEST(BallLimits, BfgsCreepAlongTheConeEscapes) {
+  const Chain c = ball_arm();
+  const SolverOptions o = arm_options(c);
+  ASSERT_EQ(o.max_restarts, 0);
+  std::mt19937 rng(31);
+  Workspace ws(c, 1);
+  for (int trial = 0; trial < 130; ++trial) {
+    const std::vector<Goal> goals{full_pose_of(c, limited_pose(c, false, rng))[0]};
+    Eigen::VectorXd p = limited_pose(c, true, rng);
+    const SolveResult r = test::run(SolverKind::kBFGS, c, goals, o, ws, p);
+    EXPECT_EQ(r.reason, TerminationReason::kConverged) << "trial " << trial;
+    EXPECT_TRUE(meets_goals(c, goals, p, o)) << "trial " << trial;
+    EXPECT_TRUE(within_limits(c, p.data(), 1e-9)) << "trial " << trial;
+  }
+}
+
 // Goals made by FK of random in-limit poses, solved from a pose with every joint on a limit
 // (and from the middle): no returned pose violates a limit, and a converged pose meets its
 // goals by our own FK.

@@ -204,7 +204,8 @@ class Escapes {
   int used() const { return used_; }
 
   // Whether a creeping run (StallRule::creeping) at params is stuck in a minimum the limits hold:
-  // some hinge or slide rests on a bound (the off-the-bounds move then frees it) and no restart
+  // some hinge or slide rests on a bound (the off-the-bounds move then frees it), or a ball on its
+  // cone or twist boundary (BFGS's steps then zig-zag along the curved boundary), and no restart
   // follows (max_restarts 0), so the escapes are the only way out. Elsewhere a creep may be a slow
   // approach that still ends within tolerance (near a singular solution), and with restarts the
   // run goes on and leaves a failure to them (docs/solvers.md, "When a solve is stuck").
@@ -212,7 +213,9 @@ class Escapes {
     if (restarts_follow()) return false;
     const int active = jacobian::active_dof_count(chain_, goals_);
     for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i)
-      if (hinge_blocked(chain_, i, params, -1.0) || hinge_blocked(chain_, i, params, 1.0)) return true;
+      if (hinge_blocked(chain_, i, params, -1.0) || hinge_blocked(chain_, i, params, 1.0) ||
+          ball_on_boundary(chain_, i, params))
+        return true;
     return false;
   }
 
