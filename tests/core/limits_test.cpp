@@ -162,7 +162,7 @@ TEST(BallLimits, ConvergesWhereProjectionStalled) {
 // and the wrist rest on their cone (and twist) boundary, every step is projected, so each is a
 // fresh Gauss-Newton step over the reduced Jacobian that zig-zags along the curved boundary with
 // ever smaller gains (a creep). Counting a ball on its boundary as a minimum the limits hold lets
-// the creep escape; before, 3 of these 130 solves ran to max_iterations (trials 7, 61, 124).
+// the creep escape; before, some of these solves ran to max_iterations (docs/limits-bench.md).
 TEST(BallLimits, BfgsCreepAlongTheConeEscapes) {
   const Chain c = ball_arm();
   const SolverOptions o = arm_options(c);
