@@ -5,8 +5,6 @@
 #include <random>
 #include <vector>
 
-#include <glm/gtc/matrix_transform.hpp>
-
 #include "core/kinematics.hpp"
 #include "core/so3.hpp"
 #include "solver_test_util.hpp"
@@ -108,21 +106,11 @@ TEST(FABRIK, TwoPositionGoalsAndFullPose) {
   EXPECT_GE(pose_ok, 0.97 * trials);
 }
 
-// Frame of the tip by 4x4 matrices, written out here rather than through forward_kinematics():
-// translate(offset_i) rotate(rest_i) rotate(axis_i, q_i) per hinge, then the tool frame.
-glm::dmat4 tool_frame_by_matrices(const Chain& c, const Eigen::VectorXd& q) {
-  glm::dmat4 m(1.0);
-  for (int j = 0; j < c.joint_count(); ++j)
-    m = m * glm::translate(glm::dmat4(1.0), c.offset_translation(j)) * glm::mat4_cast(c.rest_rotation(j)) *
-        glm::rotate(glm::dmat4(1.0), q[c.dof_offset(j)], c.hinge_axis(j));
-  return m * glm::translate(glm::dmat4(1.0), c.tip_offset()) * glm::mat4_cast(c.tip_rotation());
-}
-
 // A 7-hinge arm shaped like the xArm7 (its URDF's joint offsets and turns, rounded): the tool frame
 // sits on the last hinge's origin (tip_offset 0) and is turned (tip_rotation). Pinning the last
 // joint's point from the orientation then says nothing (it is the tip); the orientation has to come
 // from the last hinge's axis and the circle of the joint before it (fabrik.cpp). Full poses from FK
-// of random params, checked by the matrix FK above.
+// of random params, checked by the matrix FK (test::hinge_tool_frame_by_matrices).
 TEST(FABRIK, FullPoseWithToolFrameOnTheLastHinge) {
   const double quarter = 0.5 * so3::kPi;
   const struct {
@@ -152,14 +140,14 @@ TEST(FABRIK, FullPoseWithToolFrameOnTheLastHinge) {
   const int trials = 200;
   for (int t = 0; t < trials; ++t) {
     const Eigen::VectorXd truth = test::random_params(c, rng, 3.0);
-    const glm::dmat4 goal_frame = tool_frame_by_matrices(c, truth);
+    const glm::dmat4 goal_frame = test::hinge_tool_frame_by_matrices(c, truth.data());
     const glm::dvec3 goal_position(goal_frame[3]);
     const glm::dquat goal_orientation = glm::quat_cast(glm::dmat3(goal_frame));
     const auto goals = pose_goals(c, goal_position, goal_orientation);
     Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
     const SolveResult r = solve(kKind, c, Span<const Goal>(goals.data(), 2), o, ws, p);
     ASSERT_TRUE(r.usable());
-    const glm::dmat4 got = tool_frame_by_matrices(c, p);
+    const glm::dmat4 got = test::hinge_tool_frame_by_matrices(c, p.data());
     const double position_error = glm::length(glm::dvec3(got[3]) - goal_position);
     const glm::dquat delta = glm::quat_cast(glm::dmat3(got)) * glm::conjugate(goal_orientation);
     const double angle = 2.0 * std::atan2(glm::length(glm::dvec3(delta.x, delta.y, delta.z)), std::abs(delta.w));

@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include "core/solvers/stuck.hpp"
@@ -341,24 +340,13 @@ TEST(Stuck, EscapesAreBoundedReportedAndDeterministic) {
 // robots_bench goals of those indices), each goal the tip of a joint vector within the limits,
 // every solve from the middle of the limits with max_iterations 100 and no restart. Each now
 // converges, escaping at least once, within the limits; the tip is checked by a forward kinematics
-// written out here from the same numbers (a product of 4x4 transforms, nothing of the library).
+// of 4x4 transforms (test::hinge_tool_frame_by_matrices), not the library's.
 struct ArmJoint {
   double x, y, z;         // origin, in the parent joint's frame (m)
   double qw, qx, qy, qz;  // origin rotation
   double ax, ay, az;      // hinge axis in the joint frame
   double lower, upper;    // rad
 };
-
-glm::dmat4 arm_tip_frame(const std::vector<ArmJoint>& joints, const glm::dvec3& tool, const double* q) {
-  glm::dmat4 t(1.0);
-  for (size_t i = 0; i < joints.size(); ++i) {
-    const ArmJoint& j = joints[i];
-    t = t * glm::translate(glm::dmat4(1.0), glm::dvec3(j.x, j.y, j.z)) *
-        glm::mat4_cast(glm::dquat(j.qw, j.qx, j.qy, j.qz)) *
-        glm::rotate(glm::dmat4(1.0), q[i], glm::dvec3(j.ax, j.ay, j.az));
-  }
-  return t * glm::translate(glm::dmat4(1.0), tool);
-}
 
 Chain arm_chain(const std::vector<ArmJoint>& joints, const glm::dvec3& tool) {
   ChainBuilder b;
@@ -443,7 +431,7 @@ TEST(Stuck, RealArmPositionGoalsHeldByTheLimitsConvergeWithoutRestarts) {
     for (int i = 0; i < n; ++i) middle[i] = 0.5 * ((*arm.joints)[i].lower + (*arm.joints)[i].upper);
     for (size_t g = 0; g < arm.goals.size(); ++g) {
       const TrappedGoal& goal = arm.goals[g];
-      const glm::dvec3 target(arm_tip_frame(*arm.joints, arm.tool, goal.truth.data())[3]);
+      const glm::dvec3 target(test::hinge_tool_frame_by_matrices(c, goal.truth.data())[3]);
       for (SolverKind kind : {pinv, dls, bfgs}) {
         SolverOptions o;
         o.position_tolerance = 1e-5 * c.total_length();
@@ -456,7 +444,7 @@ TEST(Stuck, RealArmPositionGoalsHeldByTheLimitsConvergeWithoutRestarts) {
         EXPECT_EQ(r.reason, TerminationReason::kConverged) << what;
         EXPECT_EQ(r.restarts, 0) << what;
         EXPECT_TRUE(within_limits(c, p.data(), 0.0)) << what;
-        const glm::dvec3 reached(arm_tip_frame(*arm.joints, arm.tool, p.data())[3]);
+        const glm::dvec3 reached(test::hinge_tool_frame_by_matrices(c, p.data())[3]);
         EXPECT_LE(glm::length(reached - target), o.position_tolerance) << what;
         if (std::find(goal.used_to_fail.begin(), goal.used_to_fail.end(), kind) != goal.used_to_fail.end()) {
           EXPECT_GE(r.escapes, 1) << what;

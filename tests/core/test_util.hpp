@@ -4,6 +4,8 @@
 #include <random>
 #include <vector>
 
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
 
 #include "core/ikchain.hpp"
@@ -87,6 +89,17 @@ inline Eigen::VectorXd random_params(const Chain& chain, std::mt19937& rng, doub
   }
   project_to_limits(chain, p.data());
   return p;
+}
+
+// The tool frame of a chain of hinges at joint angles q by 4x4 matrices, written out here rather
+// than through forward_kinematics(): translate(offset_j) rotate(rest_j) rotate(axis_j, q_j) per
+// hinge, then the tool frame (tip offset, tip rotation). The tests' independent FK for hinge arms.
+inline glm::dmat4 hinge_tool_frame_by_matrices(const Chain& chain, const double* q) {
+  glm::dmat4 m(1.0);
+  for (int j = 0; j < chain.joint_count(); ++j)
+    m = m * glm::translate(glm::dmat4(1.0), chain.offset_translation(j)) * glm::mat4_cast(chain.rest_rotation(j)) *
+        glm::rotate(glm::dmat4(1.0), q[chain.dof_offset(j)], chain.hinge_axis(j));
+  return m * glm::translate(glm::dmat4(1.0), chain.tip_offset()) * glm::mat4_cast(chain.tip_rotation());
 }
 
 inline glm::dvec3 tip_of(const Chain& chain, const Eigen::VectorXd& params) {
