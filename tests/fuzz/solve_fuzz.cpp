@@ -171,10 +171,10 @@ Errors reference_errors(const Pose& pose, const std::vector<Goal>& goals, double
         const glm::dvec3 to_point = g.target_position - (k == n ? pose.tip : pose.origins[k]);
         const double on_point = kAimAtOnPoint * (chain_length + glm::length(g.target_position));
         const double distance = glm::length(to_point);
-        e = distance > on_point ? angle_between(glm::normalize(eff_q * g.aim_axis), to_point) : 0.0;
+        const double angle = angle_between(glm::normalize(eff_q * g.aim_axis), to_point);
+        e = distance > on_point ? angle : 0.0;
         if (std::abs(distance - on_point) <= position_slack) {
           // On the radius: cost takes the angle, cost_low and max_orientation the 0.
-          const double angle = angle_between(glm::normalize(eff_q * g.aim_axis), to_point);
           out.cost += 0.5 * g.weight * angle * angle;
           continue;
         }

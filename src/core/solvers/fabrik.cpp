@@ -160,6 +160,11 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
   glm::dquat last_frame;
   const bool has_last_frame = last_frame_target(chain, goals, last_frame);
   const bool fit_last_axis = has_last_frame && chain.joint_type(n - 1) == JointType::kHinge;
+  // The last hinge's axis point, from its origin: where it is now (the axis at the current pose)
+  // and where the target frame wants it (the same offset along last_frame's axis).
+  const double axis_distance = fit_last_axis ? axis_point_distance(chain) : 0.0;
+  const glm::dvec3 desired_axis_offset =
+      fit_last_axis ? last_frame * chain.hinge_axis(n - 1) * axis_distance : glm::dvec3(0.0);
   geometric::Tracked tracked[kMaxGoals];
   geometric::Progress progress(chain, goals, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;
@@ -174,10 +179,10 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
     std::copy(params, params + chain.dof_count(), ws.params_trial.data());
     geometric::PointPair axis_point;  // the last hinge's axis: where it is, where the goal wants it
     if (fit_last_axis) {
-      const double d = axis_point_distance(chain);
-      axis_point.old_in_base = ws.joint_origins[n - 1] +
-                               geometric::hinge_axis_in_base(chain, n - 1, ws.joint_pre_rotations[n - 1]) * d;
-      axis_point.desired_in_base = ws.points_b[n - 1] + last_frame * chain.hinge_axis(n - 1) * d;
+      axis_point.old_in_base =
+          ws.joint_origins[n - 1] +
+          geometric::hinge_axis_in_base(chain, n - 1, ws.joint_pre_rotations[n - 1]) * axis_distance;
+      axis_point.desired_in_base = ws.points_b[n - 1] + desired_axis_offset;
     }
     geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params,
                                    fit_last_axis ? &axis_point : nullptr);

@@ -172,11 +172,12 @@ class StallRule {
   // After an iteration that ended at `cost`: true when kStallIterations iterations in a row lowered
   // the best cost by no more than `tolerance` (stall_tolerance) times it. NaN never improves.
   bool stalled_after(double cost, double tolerance) {
-    const bool improved = std::isfinite(best_) ? best_ - cost > tolerance * best_ : cost < best_;
-    const bool fast = std::isfinite(best_) ? best_ - cost > kCreepGain * best_ : cost < best_;
+    auto gains_more_than = [&](double fraction) {
+      return std::isfinite(best_) ? best_ - cost > fraction * best_ : cost < best_;
+    };
+    small_ = gains_more_than(tolerance) ? 0 : small_ + 1;
+    slow_ = gains_more_than(kCreepGain) ? 0 : slow_ + 1;
     if (cost < best_) best_ = cost;
-    small_ = improved ? 0 : small_ + 1;
-    slow_ = fast ? 0 : slow_ + 1;
     return small_ >= kStallIterations;
   }
   // True when the last kStallIterations iterations each lowered the best cost by less than
@@ -253,8 +254,8 @@ class Escapes {
     double* step = ws_.dof_vec_b.data();
     std::copy(params, params + n, before);
     // 0. Off the bounds: a minimum with joints resting on bounds is a constrained one that no
-    //    null-space move leaves (the bound, not J, holds it). Every such joint moves to the middle
-    //    of its range and the solve starts again from there - on the first escape and the third.
+    //    null-space move leaves (the bound, not J, holds it). Every such joint moves off its bound
+    //    (unpin()) and the solve starts again from there - on the first escape and the third.
     if (used_ % 2 == 1 && unpin(active, params)) return true;
     // 1. Toward the rest pose, in the null space of J, the hinges on a bound it would push out
     //    left out - kept when it moves the pose off the stationary point.
