@@ -1,0 +1,108 @@
+// Solving a whole tree in one coupled problem, with strict priority levels.
+//
+// Goals are the chain's Goal kinds (goal.hpp) on tree effectors (Goal::effector = the index
+// TreeBuilder::add_effector returned), each at a priority level: 1 is the highest. Level k is
+// solved in the null space of levels 1..k-1 (recursive null-space projection, Siciliano & Slotine
+// 1991; Baerlocher & Boulic 2004): a lower level never gives up accuracy of a higher one to serve
+// itself. Within a level, goal weights trade goals off as in a chain solve. Below every level an
+// optional posture task pulls the redundant DOFs toward a preferred pose. Joint limits hold at
+// every level (the active set of the Jacobian solvers).
+#pragma once
+#include <array>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "core/deadline.hpp"
+#include "core/goal.hpp"
+#include "core/options.hpp"
+#include "core/result.hpp"
+#include "core/span.hpp"
+#include "core/tree.hpp"
+
+namespace ikchain {
+
+constexpr int kMaxPriorityLevels = 4;
+constexpr int kMaxTreeGoals = 64;
+
+struct TreeGoal {
+  Goal goal;      // goal.effector: a tree effector index (0..effector_count-1)
+  int level = 1;  // 1 (highest) .. kMaxPriorityLevels
+};
+
+struct TreeProblem {
+  Span<const TreeGoal> goals;
+  // Posture task, below every level: the preferred params (dof_count entries; empty = none) and
+  // per DOF the share (in [0, 1]) of the remaining distance to them that one iteration closes
+  // inside the null space of every goal level (empty = 1 for every DOF; 0 = this DOF has no
+  // preference). It only uses the freedom the goals leave, so it never costs a goal accuracy.
+  Span<const double> posture;
+  Span<const double> posture_stiffness;
+};
+
+struct TreeSolveResult {
+  // Reason, iterations, worst errors of the whole problem, time, restarts, budget: as for chains.
+  // Converged means every goal of every level is within tolerance.
+  SolveResult summary;
+  int goal_count = 0;
+  // Per goal, in the problem's order: its error after the solve (m for kPosition, rad otherwise).
+  std::array<double, kMaxTreeGoals> goal_error{};
+  // Per level 1..kMaxPriorityLevels (index level - 1): true when every goal of that level is
+  // within tolerance (a level with no goal is met).
+  std::array<bool, kMaxPriorityLevels> level_met{};
+  bool usable() const { return summary.usable(); }
+};
+
+// Caller-owned scratch memory: sized once by reset() (allocates); a solve that fits() allocates
+// nothing.
+struct TreeWorkspace {
+  TreeWorkspace() = default;
+  explicit TreeWorkspace(const Tree& tree, int max_goals = 16) { reset(tree, max_goals); }
+  void reset(const Tree& tree, int max_goals = 16);
+  bool fits(const Tree& tree, int goal_count) const;
+
+  int joints = 0, dofs = 0, max_goals = 0;
+  Deadline deadline;
+
+  // Forward kinematics (tree_forward_kinematics() fills these), base space.
+  std::vector<glm::dvec3> joint_origins;        // o_i
+  std::vector<glm::dquat> joint_orientations;   // Q_i
+  std::vector<glm::dquat> joint_pre_rotations;  // pre_i
+  std::vector<glm::dvec3> dof_axes;             // per DOF: base-frame rotation axis (or slide direction)
+
+  Eigen::MatrixXd jacobian;       // (3 * max_goals) x dofs, weighted rows
+  Eigen::VectorXd residual;       // 3 * max_goals, weighted
+  Eigen::MatrixXd projected;      // (3 * max_goals) x dofs: a level's Jacobian in the null space above it
+  Eigen::MatrixXd row_square;     // (3 * max_goals)^2
+  Eigen::MatrixXd row_factor;     // (3 * max_goals)^2
+  Eigen::MatrixXd null_basis_rows;  // (3 * max_goals) x dofs: stacked rows of the levels solved so far
+  Eigen::MatrixXd null_basis_gram;  // (3 * max_goals)^2: their Gram matrix's factor
+  Eigen::VectorXd row_vec_a, row_vec_b;
+  Eigen::VectorXd step, dof_vec_a, dof_scale;
+  Eigen::VectorXd params_trial, params_best, params_backup;
+  std::vector<uint8_t> dof_blocked;
+};
+
+// Moves `params` (tree.dof_count() entries) toward the goals. On kInvalidInput params are untouched
+// and summary.message names the bad field. Never allocates when workspace.fits(tree, goals.size);
+// never throws; never writes a non-finite value to params.
+TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem& problem,
+                           const SolverOptions& options, TreeWorkspace& workspace,
+                           Eigen::Ref<Eigen::VectorXd> params);
+
+// The checks solve_tree() makes first; empty when all is well.
+Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProblem& problem,
+                             const SolverOptions& options, const TreeWorkspace& workspace,
+                             const Eigen::Ref<const Eigen::VectorXd>& params);
+
+// Forward kinematics of a tree: fills ws.joint_origins, joint_orientations, joint_pre_rotations.
+void tree_forward_kinematics(const Tree& tree, const double* params, TreeWorkspace& ws);
+glm::dvec3 tree_effector_position(const Tree& tree, const TreeWorkspace& ws, int effector);
+glm::dquat tree_effector_orientation(const Tree& tree, const TreeWorkspace& ws, int effector);
+// One goal's error vector (desired - current, unweighted) after tree_forward_kinematics().
+glm::dvec3 tree_goal_error(const Tree& tree, const TreeWorkspace& ws, const Goal& goal);
+// Joint-space limits on every joint of the tree; within_tree_limits: within `slack` (rad, m).
+void project_tree_to_limits(const Tree& tree, double* params);
+bool within_tree_limits(const Tree& tree, const double* params, double slack = 1e-9);
+
+}  // namespace ikchain
