@@ -697,7 +697,30 @@ bool IKChain::needs_rebuild(const gdx::Skeleton3D& skel) const {
          IKChainJoint::generation() != built_settings_generation_ ||
          // A bone renamed under our chain (the version does not count renames in every engine).
          (chain_ok_ && (skel.find_bone(root_bone_name_) != root_bone_index_ ||
-                        skel.find_bone(tip_bone_name_) != tip_bone_index_));
+                        skel.find_bone(tip_bone_name_) != tip_bone_index_)) ||
+         ancestry_changed(skel);
+}
+
+bool IKChain::ancestry_changed(const gdx::Skeleton3D& skel) const {
+  const int64_t count = skel.get_bone_count();
+  for (const auto& [bone, parent] : built_ancestry_)
+    if (bone >= count || skel.get_bone_parent(bone) != parent) return true;
+  return false;
+}
+
+void IKChain::record_ancestry(const gdx::Skeleton3D& skel) {
+  built_ancestry_.clear();
+  if (!skel || tip_bone_.empty()) return;
+  const int64_t count = skel.get_bone_count();
+  const int root = root_bone_.empty() ? -1 : int(skel.find_bone(text(root_bone_)));
+  int bone = int(skel.find_bone(text(tip_bone_)));
+  // Bounded by the bone count: a parent cycle cannot hang the walk.
+  for (int64_t steps = 0; bone >= 0 && bone < count && steps <= count; ++steps) {
+    const int parent = int(skel.get_bone_parent(bone));
+    built_ancestry_.emplace_back(bone, parent);
+    if (bone == root) break;
+    bone = parent;
+  }
 }
 
 void IKChain::rebuild(const gdx::Skeleton3D& skel) {
@@ -710,6 +733,7 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
   built_skeleton_id_ = skel.instance_id();
   built_skeleton_version_ = skel ? skel.get_version() : -1;
   built_settings_generation_ = IKChainJoint::generation();
+  record_ancestry(skel);
 
   SkeletonChainDesc desc;
   collect_chain_problems(skel, chain_problems_, &desc);

@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -150,6 +151,8 @@ class IKChain {
                      std::vector<Problem>& unmovable) const;
   void rebuild(const gdx::Skeleton3D& skeleton);
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
+  bool ancestry_changed(const gdx::Skeleton3D& skeleton) const;
+  void record_ancestry(const gdx::Skeleton3D& skeleton);
   void watch_skeleton(const gdx::Skeleton3D& skeleton);
   // The solve of one frame; false when nothing was written.
   bool run(const gdx::Skeleton3D& skeleton);
@@ -200,6 +203,11 @@ class IKChain {
   int base_bone_ = -1;     // root_bone's parent, -1 = skeleton space
   gdx::String root_bone_name_, tip_bone_name_;  // for the per-frame rename check (no allocation)
   int root_bone_index_ = -1, tip_bone_index_ = -1;
+  // tip_bone's ancestry as built: (bone, its parent) from tip_bone up to root_bone (or the top of
+  // the skeleton when root_bone is not an ancestor). set_bone_parent() can reshape the chain
+  // without touching the bone count or the skeleton's version, so the per-frame check compares
+  // these parents (a few ptrcalls, no allocation).
+  std::vector<std::pair<int, int>> built_ancestry_;
   // Per-frame buffers, sized at rebuild.
   std::vector<BonePose> bone_poses_;
   std::vector<glm::dquat> old_rotations_, new_rotations_, blended_rotations_;

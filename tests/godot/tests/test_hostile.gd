@@ -171,6 +171,28 @@ func test_bones_added_at_run_time() -> void:
 	await _check_reaches(skel, ik, goal, "after a bone was added")
 
 
+## Issue 16 item 1: set_bone_parent() reshapes the chain without changing the bone count. The
+## chain must follow the new hierarchy (j0 -> j2 -> tip), not keep solving the old one and report
+## converged with the tip off the target.
+func test_bone_parent_changed_same_bone_count() -> void:
+	var rig := _rig(12)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	var j0 := skel.find_bone("j0")
+	var j2 := skel.find_bone("j2")
+	var count := skel.get_bone_count()
+	skel.set_bone_parent(j2, j0)  # j1 leaves the chain; j2 (0.45) and tip (0.3) stay
+	check_eq(skel.get_bone_count(), count, "bone count unchanged")
+	# A point 0.6 from j0's origin (fixed by the solve): reachable by 0.45 + 0.3 ball joints.
+	var j0_world := skel.global_transform * skel.get_bone_global_pose(j0).origin
+	var goal := j0_world + Vector3(0.3, 0.4, -0.2).normalized() * 0.6
+	(rig["target"] as Node3D).global_position = goal
+	await _check_reaches(skel, ik, goal, "after set_bone_parent(j2, j0)")
+	check_eq(Array(ik.get_chain_bones()), [j0, j2], "the chain follows the new hierarchy")
+
+
 func test_bones_cleared_at_run_time() -> void:
 	var rig := _rig(9)
 	var skel: Skeleton3D = rig["skeleton"]
