@@ -137,3 +137,41 @@ func test_out_of_range_properties_are_clamped_with_an_error() -> void:
 	ik.solver = 9
 	check_eq(ik.solver, IKChain.SOLVER_AUTO, "solver = 9")
 	ik.free()
+
+
+## Issue 16 item 9: assigning an Array property (joints, goals) from a script leaked one Array per
+## assignment (the binding constructed the argument over an already constructed Array). Every
+## script path to the setters (property, set(), call(), typed call) and the other builtin
+## arguments converted the same way (String, StringName, NodePath) must leave the engine's
+## tracked memory where it was.
+func test_property_assignments_do_not_leak() -> void:
+	var ik := IKChain.new()
+	var joint := IKChainJoint.new()
+	var goal := IKChainGoal.new()
+	var joints: Array[IKChainJoint] = [joint]
+	var goals: Array[IKChainGoal] = [goal]
+	var plain := []
+	const N := 5000
+	var paths := {
+		"ik.joints = a": func(): ik.joints = joints,
+		"ik.goals = a": func(): ik.goals = goals,
+		"ik.set(\"joints\", a)": func(): ik.set("joints", plain),
+		"ik.set(\"goals\", a)": func(): ik.set("goals", plain),
+		"ik.call(\"set_joints\", a)": func(): ik.call("set_joints", joints),
+		"ik.set_joints(a)": func(): ik.set_joints(joints),
+		"ik.set(\"root_bone\", String)": func(): ik.set("root_bone", "j0"),
+		"ik.set(\"tip_bone\", StringName)": func(): ik.set("tip_bone", &"tip"),
+		"ik.set(\"target\", NodePath)": func(): ik.set("target", NodePath("../T")),
+		"ik.set(\"pole_target\", String)": func(): ik.set("pole_target", "../P"),
+	}
+	for what in paths:
+		var assign: Callable = paths[what]
+		for i in 50:  # warm-up: first-use allocations (caches, interned names)
+			assign.call()
+		var before := OS.get_static_memory_usage()
+		for i in N:
+			assign.call()
+		var grown := OS.get_static_memory_usage() - before
+		# A leak of one Array (80 bytes) per assignment grows by 400 kB; allow 1 byte per call.
+		check_le(grown, N, "%s x %d: tracked memory growth (bytes)" % [what, N])
+	ik.free()
