@@ -142,6 +142,15 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_deterministic", &IKChain::set_deterministic, {"enabled"});
   b.method("is_deterministic", &IKChain::is_deterministic);
   b.method("get_last_result", &IKChain::get_last_result);
+  b.method("get_last_reason", &IKChain::get_last_reason);
+  b.method("is_last_usable", &IKChain::is_last_usable);
+  b.method("is_last_reached", &IKChain::is_last_reached);
+  b.method("get_last_iterations", &IKChain::get_last_iterations);
+  b.method("get_last_initial_error", &IKChain::get_last_initial_error);
+  b.method("get_last_final_error", &IKChain::get_last_final_error);
+  b.method("get_last_position_error", &IKChain::get_last_position_error);
+  b.method("get_last_orientation_error", &IKChain::get_last_orientation_error);
+  b.method("get_last_microseconds", &IKChain::get_last_microseconds);
   b.method("solve_now", &IKChain::solve_now);
   b.method("get_chain_bones", &IKChain::get_chain_bones);
   // Also callable from scripts (as godot-cpp does for bound virtuals): Node has no bound
@@ -391,24 +400,39 @@ void IKChain::set_deterministic(bool on) {
 
 // ---------------------------------------------------------------- script API
 
+// final_error, position_error, orientation_error and reached describe the pose the skeleton ends
+// with (after its influence blend); solver_final_error is the solver's own. The typed getters and
+// the Dictionary share these definitions, so they cannot disagree.
+gdx::String IKChain::get_last_reason() const {
+  return gdx::String(has_result_ ? reason_name(last_.reason) : "not_run");
+}
+bool IKChain::is_last_usable() const { return has_result_ && last_.usable(); }
+double IKChain::get_last_final_error() const { return is_last_usable() ? written_.combined : last_.final_error; }
+double IKChain::get_last_position_error() const {
+  return is_last_usable() ? written_.max_position : last_.final_position_error;
+}
+double IKChain::get_last_orientation_error() const {
+  return is_last_usable() ? written_.max_orientation : last_.final_orientation_error;
+}
+bool IKChain::is_last_reached() const {
+  return is_last_usable() && written_.max_position <= tolerance_ && written_.max_orientation <= orientation_tolerance_;
+}
+
 gdx::Dictionary IKChain::get_last_result() const {
   gdx::Dictionary d;
   auto put = [&d](const char* key, const gdx::Variant& value) { d.set(gdx::Variant(key), value); };
   // The same keys every time (zeros before the first solve), so scripts can read them unguarded.
-  const bool usable = has_result_ && last_.usable();
-  put("reason", gdx::Variant(has_result_ ? reason_name(last_.reason) : "not_run"));
+  const bool usable = is_last_usable();
+  put("reason", gdx::Variant(get_last_reason()));
   put("usable", gdx::Variant(usable));
-  put("iterations", gdx::Variant(int64_t(last_.iterations)));
-  put("initial_error", gdx::Variant(last_.initial_error));
-  // final_error, position_error, orientation_error and reached describe the pose the skeleton
-  // ends with (after its influence blend); solver_final_error is the solver's own.
-  put("final_error", gdx::Variant(usable ? written_.combined : last_.final_error));
+  put("iterations", gdx::Variant(get_last_iterations()));
+  put("initial_error", gdx::Variant(get_last_initial_error()));
+  put("final_error", gdx::Variant(get_last_final_error()));
   put("solver_final_error", gdx::Variant(last_.final_error));
-  put("position_error", gdx::Variant(usable ? written_.max_position : last_.final_position_error));
-  put("orientation_error", gdx::Variant(usable ? written_.max_orientation : last_.final_orientation_error));
-  put("microseconds", gdx::Variant(last_.elapsed_us));
-  put("reached", gdx::Variant(usable && written_.max_position <= tolerance_ &&
-                              written_.max_orientation <= orientation_tolerance_));
+  put("position_error", gdx::Variant(get_last_position_error()));
+  put("orientation_error", gdx::Variant(get_last_orientation_error()));
+  put("microseconds", gdx::Variant(get_last_microseconds()));
+  put("reached", gdx::Variant(is_last_reached()));
   put("budget_exhausted", gdx::Variant(last_.budget_exhausted));
   put("restarts", gdx::Variant(int64_t(last_.restarts)));
   put("escapes", gdx::Variant(int64_t(last_.escapes)));

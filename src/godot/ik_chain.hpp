@@ -108,6 +108,17 @@ class IKChain {
   // ---- script API
   // The last solve: see get_last_result() in the class reference for the keys.
   gdx::Dictionary get_last_result() const;
+  // The same values without building a Dictionary (per-frame readers): each equals the key of
+  // get_last_result() it is named after.
+  gdx::String get_last_reason() const;
+  bool is_last_usable() const;
+  bool is_last_reached() const;
+  int64_t get_last_iterations() const { return int64_t(last_.iterations); }
+  double get_last_initial_error() const { return last_.initial_error; }
+  double get_last_final_error() const;
+  double get_last_position_error() const;
+  double get_last_orientation_error() const;
+  double get_last_microseconds() const { return last_.elapsed_us; }
   // Solves and writes the pose now (tools, tests); returns get_last_result().
   gdx::Dictionary solve_now();
   // Skeleton bone indices of the joints, root first (empty while the chain is not valid).

@@ -175,3 +175,67 @@ func test_property_assignments_do_not_leak() -> void:
 		# A leak of one Array (80 bytes) per assignment grows by 400 kB; allow 1 byte per call.
 		check_le(grown, N, "%s x %d: tracked memory growth (bytes)" % [what, N])
 	ik.free()
+
+
+## get_last_result()'s keys against the typed getters named after them (issue 16 item 16).
+func _check_getters_agree(ik: IKChain, what: String) -> void:
+	var r: Dictionary = ik.get_last_result()
+	check_eq(ik.get_last_reason(), r["reason"], what + ": get_last_reason()")
+	check_eq(ik.is_last_usable(), r["usable"], what + ": is_last_usable()")
+	check_eq(ik.is_last_reached(), r["reached"], what + ": is_last_reached()")
+	check_eq(ik.get_last_iterations(), r["iterations"], what + ": get_last_iterations()")
+	check_eq(ik.get_last_initial_error(), r["initial_error"], what + ": get_last_initial_error()")
+	check_eq(ik.get_last_final_error(), r["final_error"], what + ": get_last_final_error()")
+	check_eq(ik.get_last_position_error(), r["position_error"], what + ": get_last_position_error()")
+	check_eq(ik.get_last_orientation_error(), r["orientation_error"], what + ": get_last_orientation_error()")
+	check_eq(ik.get_last_microseconds(), r["microseconds"], what + ": get_last_microseconds()")
+
+
+## Issue 16 item 16: typed getters for the last solve (reason, errors, iterations, time), equal to
+## the Dictionary's keys before any solve, after a converged, an unreachable, a blended
+## (influence < 1) and an invalid solve, and cheaper to read than the Dictionary.
+func test_last_result_typed_getters() -> void:
+	var Rig := preload("res://lib/rig.gd")
+	var Arm := preload("res://lib/arm.gd")
+	var rng := RandomNumberGenerator.new()
+	rng.seed = 16
+	var goal := Arm.fk_tip_world(3, Arm.random_rotations(rng, 3))
+	var rig := Rig.make(3, IKChain.SOLVER_DLS, goal)
+	var ik: IKChain = rig["ik"]
+	_check_getters_agree(ik, "before any solve")
+	check_eq(ik.get_last_reason(), "not_run", "reason before any solve")
+	case_root.add_child(rig["container"])
+	await frames(2)
+	ik.solve_now()
+	_check_getters_agree(ik, "converged")
+	check_eq(ik.get_last_reason(), "converged", "reason of a reachable target")
+	check(ik.is_last_reached(), "reached a reachable target")
+	check(ik.get_last_iterations() >= 0 and ik.get_last_microseconds() > 0.0, "work and time reported")
+	(rig["target"] as Node3D).global_position = goal + (goal - Arm.root_joint_world()) * 5.0
+	ik.solve_now()
+	_check_getters_agree(ik, "out of reach")
+	check(not ik.is_last_reached() and ik.get_last_position_error() > 0.1, "out of reach: not reached, error shown")
+	ik.influence = 0.5
+	ik.solve_now()
+	_check_getters_agree(ik, "influence 0.5")
+	ik.influence = 1.0
+	ik.tip_bone = "no such bone"
+	ik.solve_now()
+	_check_getters_agree(ik, "misconfigured")
+	check_eq(ik.get_last_reason(), "invalid_input", "reason of a misconfigured chain")
+	check(not ik.is_last_usable(), "misconfigured: not usable")
+	# Cost: one typed read against one Dictionary (best of 3 rounds, loose: the Dictionary
+	# builds 15 entries and its String keys).
+	var best_typed := INF
+	var best_dict := INF
+	for round in 3:
+		var t0 := Time.get_ticks_usec()
+		for i in 2000:
+			ik.get_last_position_error()
+		var t1 := Time.get_ticks_usec()
+		for i in 2000:
+			ik.get_last_result()
+		var t2 := Time.get_ticks_usec()
+		best_typed = minf(best_typed, t1 - t0)
+		best_dict = minf(best_dict, t2 - t1)
+	check_le(best_typed * 2.0, best_dict, "2000 typed reads cost at most half of 2000 get_last_result() (us)")
