@@ -64,6 +64,22 @@ constexpr const char* kBadBase =
     "IKChain: the skeleton's global transform (or the base bone's pose) is not invertible: a zero scale? This frame "
     "was skipped and the last pose kept.";
 constexpr const char* kNonFinite = "IKChain: the solver produced a non-finite rotation; the pose was left unchanged.";
+// Problems that do not stop the frame: reported once per spell (see report_spell()).
+constexpr const char* kBadPole =
+    "IKChain: pole_target's global position is not finite or absurdly far (more than 1e6 chain lengths from the "
+    "root bone); the pole is ignored until it is back. Move pole_target near the limb, on the side the knee or "
+    "elbow should point to.";
+constexpr const char* kBadTargetBasis =
+    "IKChain: the target's basis is degenerate (a zero scale?), so it has no rotation: the tip's orientation goal "
+    "(use_target_rotation) is skipped, its position still reached, until the basis is valid. Give the target a "
+    "non-zero scale, or turn off use_target_rotation.";
+constexpr const char* kBadGoalBasis =
+    "IKChain: the target of an orientation goal (goals[], kind Orientation) has a degenerate basis (a zero "
+    "scale?), so it has no rotation: that goal is skipped until the basis is valid. Give its target a non-zero "
+    "scale.";
+// A pole farther than this many chain lengths from the root gives no usable direction (its
+// perpendicular part drowns in rounding): treated like a non-finite one.
+constexpr double kMaxPoleDistanceInChainLengths = 1e6;
 
 const char* reason_name(TerminationReason r) {
   switch (r) {
@@ -324,7 +340,11 @@ void IKChain::set_goal_mode(int64_t mode) {
 }
 
 void IKChain::set_aim_axis(const gdx::Vector3& axis) {
-  aim_axis_ = axis;
+  double x = 0, y = 0, z = 0;
+  if (!direction_or_report(kClass, "aim_axis", "Set the tip bone's axis that should point at the target, e.g. (0, 1, 0).",
+                           axis.x, axis.y, axis.z, x, y, z))
+    return;
+  aim_axis_ = gdx::Vector3{gdx::real_t(x), gdx::real_t(y), gdx::real_t(z)};
   settings_changed();
 }
 
@@ -390,7 +410,8 @@ void IKChain::set_max_restarts(int64_t n) {
 
 void IKChain::set_restart_seed(int64_t seed) {
   restart_seed_ = seed;
-  options_.restart_seed = unsigned(uint64_t(seed));  // any value; the same seed gives the same restarts
+  // All 64 bits (a negative seed is its two's complement): different seeds give different restarts.
+  options_.restart_seed = uint64_t(seed);
 }
 
 void IKChain::set_deterministic(bool on) {
@@ -819,6 +840,12 @@ void IKChain::report_runtime(const char* message) {
   runtime_reported_.emplace_back(message);
 }
 
+void IKChain::Spell::report(const char* message) {
+  if (reported) return;
+  gdx::print_error(message, "IKChain::_process_modification_with_delta", __FILE__, __LINE__);
+  reported = true;
+}
+
 void IKChain::set_invalid_result(const char* message) {
   // The modification did nothing this frame: a defined result, the pose is left as it was.
   has_result_ = true;
@@ -876,13 +903,19 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
   } else {
     goal_buffer_[size_t(goal_count_++)] = Goal::position(target_in_base, 0, 1.0);
     if (use_target_rotation_ && rotation_weight_ > 0.0) {
-      // rotation_weight 1: a radian of orientation error costs as much as one chain length of
-      // position error.
-      goal_buffer_[size_t(goal_count_++)] = Goal::orientation(
-          mapping_.effector_orientation_for_tip_bone(base.rotation_in_base(target_m)), 0,
-          rotation_weight_ * length * length);
+      if (has_rotation(glm::dmat3(target_m))) {
+        // rotation_weight 1: a radian of orientation error costs as much as one chain length of
+        // position error.
+        goal_buffer_[size_t(goal_count_++)] = Goal::orientation(
+            mapping_.effector_orientation_for_tip_bone(base.rotation_in_base(target_m)), 0,
+            rotation_weight_ * length * length);
+        target_basis_spell_.clear();
+      } else {
+        target_basis_spell_.report(kBadTargetBasis);
+      }
     }
   }
+  bool bad_goal_basis = false;
   for (const ExtraGoal& e : extra_goals_) {
     const gdx::Node3D node = gdx::Node3D::cast(self.get_node_or_null(e.target));
     if (!node) continue;  // a configuration warning says so
@@ -891,6 +924,10 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
     switch (e.kind) {
       case GoalKind::kPosition: g = Goal::position(base.point_in_base(glm::dvec3(m[3])), e.effector, e.weight); break;
       case GoalKind::kOrientation:
+        if (!has_rotation(glm::dmat3(m))) {
+          bad_goal_basis = true;
+          continue;
+        }
         g = Goal::orientation(base.rotation_in_base(m), e.effector, e.weight * length * length);
         break;
       default:
@@ -901,14 +938,25 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
     goal_buffer_[size_t(goal_count_++)] = g;
   }
 
+  if (bad_goal_basis)
+    goal_basis_spell_.report(kBadGoalBasis);
+  else
+    goal_basis_spell_.clear();
+
   options_.use_pole = false;
   if (!pole_target_.is_empty()) {
     const gdx::Node3D pole = gdx::Node3D::cast(self.get_node_or_null(pole_target_));
-    if (pole) {
+    if (pole) {  // a missing node is a configuration warning
       const glm::dvec3 pole_in_base = base.point_in_base(glm::dvec3(gdx::to_glm(pole.get_global_transform())[3]));
-      if (so3::finite(pole_in_base)) {
+      const glm::dvec3 root_in_base = bone_poses_[0].position;  // root_bone's origin, in its parent
+      const double reach = kMaxPoleDistanceInChainLengths * std::max(length, 1e-6);
+      if (so3::finite(pole_in_base) && glm::all(glm::lessThanEqual(glm::abs(pole_in_base - root_in_base),
+                                                                    glm::dvec3(reach)))) {
         options_.use_pole = true;
         options_.pole_in_base = pole_in_base;
+        pole_spell_.clear();
+      } else {
+        pole_spell_.report(kBadPole);  // the solve goes on without the pole
       }
     }
   }

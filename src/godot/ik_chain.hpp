@@ -236,6 +236,14 @@ class IKChain {
   std::vector<ExtraGoal> extra_goals_;  // resolved at rebuild
 
   std::vector<std::string> runtime_reported_;
+  // A problem that does not stop the frame (the solve goes on without the part it spoils): one
+  // message when it starts, none while it lasts, again after a frame without it.
+  struct Spell {
+    bool reported = false;
+    void report(const char* message);
+    void clear() { reported = false; }
+  };
+  Spell pole_spell_, target_basis_spell_, goal_basis_spell_;
 
   // Last solve.
   bool has_result_ = false;

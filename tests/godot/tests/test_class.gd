@@ -239,3 +239,54 @@ func test_last_result_typed_getters() -> void:
 		best_typed = minf(best_typed, t1 - t0)
 		best_dict = minf(best_dict, t2 - t1)
 	check_le(best_typed * 2.0, best_dict, "2000 typed reads cost at most half of 2000 get_last_result() (us)")
+
+
+## Issue 16 item 10: aim_axis (IKChain and IKChainGoal) is normalised when set; a zero or
+## non-finite vector is rejected with an error naming the property, and the previous value stays.
+func test_aim_axis_normalised_or_rejected() -> void:
+	for obj in [IKChain.new(), IKChainGoal.new()]:
+		var what: String = obj.get_class()
+		obj.aim_axis = Vector3(0, 0, 2)
+		check(obj.aim_axis.is_equal_approx(Vector3(0, 0, 1)), "%s: (0, 0, 2) stored as (0, 0, 1), got %s" % [what, obj.aim_axis])
+		obj.set("aim_axis", Vector3(3, 4, 0))
+		check(obj.aim_axis.is_equal_approx(Vector3(0.6, 0.8, 0)), "%s: set() (3, 4, 0) stored as (0.6, 0.8, 0), got %s" % [what, obj.aim_axis])
+		obj.aim_axis = Vector3(1e30, 0, 0)
+		check(obj.aim_axis.is_equal_approx(Vector3(1, 0, 0)), "%s: (1e30, 0, 0) stored as (1, 0, 0), got %s" % [what, obj.aim_axis])
+		expect_error(what + ": aim_axis must be a finite, non-zero vector.*keeping the previous value", 3)
+		for bad in [Vector3.ZERO, Vector3(NAN, 1, 0), Vector3(0, INF, 0)]:
+			obj.aim_axis = bad
+			check_eq(obj.aim_axis, Vector3(1, 0, 0), "%s: %s rejected, the previous value kept" % [what, bad])
+		if obj is Node:
+			obj.free()
+
+
+## Issue 16 item 10: restart_seed keeps all 64 bits: 1 and 2^32 + 1 give different restarts, the
+## same seed the same result.
+func test_restart_seed_keeps_64_bits() -> void:
+	var Rig := preload("res://lib/rig.gd")
+	var Arm := preload("res://lib/arm.gd")
+	# A target behind the arm, one iteration per run: the best of 30 random restarts depends on
+	# every draw of the generator.
+	var goal := Arm.root_joint_world() + Arm.SKELETON_TRANSFORM.basis * Vector3(0.2, -0.3, 0.35)
+	var rig := Rig.make(3, IKChain.SOLVER_DLS, goal)
+	var ik: IKChain = rig["ik"]
+	var skel: Skeleton3D = rig["skeleton"]
+	ik.deterministic = true
+	ik.max_iterations = 1
+	ik.max_restarts = 30
+	case_root.add_child(rig["container"])
+	await frames(1)
+	var runs := {}
+	for seed_value in [1, 4294967297, 2, 1]:
+		ik.restart_seed = seed_value
+		check_eq(ik.restart_seed, seed_value, "restart_seed %d read back" % seed_value)
+		var r := ik.solve_now()
+		var pose := [r["final_error"]]
+		for name in ["j0", "j1", "j2"]:
+			pose.append(skel.get_bone_pose_rotation(skel.find_bone(name)))
+		check(int(r["restarts"]) > 0, "seed %d: restarts ran" % seed_value)
+		if runs.has(seed_value):
+			check_eq(pose, runs[seed_value], "seed %d twice: the same result" % seed_value)
+		runs[seed_value] = pose
+	check(runs[1] != runs[2], "seeds 1 and 2 give different restarts (the case depends on the seed)")
+	check(runs[1] != runs[4294967297], "seeds 1 and 2^32 + 1 give different restarts")
