@@ -924,11 +924,13 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
     switch (e.kind) {
       case GoalKind::kPosition: g = Goal::position(base.point_in_base(glm::dvec3(m[3])), e.effector, e.weight); break;
       case GoalKind::kOrientation:
+        // Like the tip's orientation goal: rotation_weight scales every orientation goal.
+        if (!(rotation_weight_ > 0.0)) continue;
         if (!has_rotation(glm::dmat3(m))) {
           bad_goal_basis = true;
           continue;
         }
-        g = Goal::orientation(base.rotation_in_base(m), e.effector, e.weight * length * length);
+        g = Goal::orientation(base.rotation_in_base(m), e.effector, e.weight * rotation_weight_ * length * length);
         break;
       default:
         g = Goal::aim_at(base.point_in_base(glm::dvec3(m[3])), e.axis_in_effector, e.effector,
