@@ -64,7 +64,7 @@ constexpr const char* kBadBase =
     "IKChain: the skeleton's global transform (or the base bone's pose) is not invertible: a zero scale? This frame "
     "was skipped and the last pose kept.";
 constexpr const char* kNonFinite = "IKChain: the solver produced a non-finite rotation; the pose was left unchanged.";
-// Problems that do not stop the frame: reported once per spell (see report_spell()).
+// Problems that do not stop the frame: reported once per spell (IKChain::Spell).
 constexpr const char* kBadPole =
     "IKChain: pole_target's global position is not finite or absurdly far (more than 1e6 chain lengths from the "
     "root bone); the pole is ignored until it is back. Move pole_target near the limb, on the side the knee or "
@@ -897,6 +897,7 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
   const double length = mapping_.chain().total_length();
 
   goal_count_ = 0;
+  bool bad_target_basis = false;
   if (goal_mode_ == GOAL_MODE_AIM) {
     goal_buffer_[size_t(goal_count_++)] =
         Goal::aim_at(target_in_base, mapping_.aim_axis_in_effector(gdx::to_glm(aim_axis_)), 0, 1.0);
@@ -909,12 +910,16 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
         goal_buffer_[size_t(goal_count_++)] = Goal::orientation(
             mapping_.effector_orientation_for_tip_bone(base.rotation_in_base(target_m)), 0,
             rotation_weight_ * length * length);
-        target_basis_spell_.clear();
       } else {
-        target_basis_spell_.report(kBadTargetBasis);
+        bad_target_basis = true;
       }
     }
   }
+  // A spell ends on any frame without the problem (also when the spoiled part is no longer asked for).
+  if (bad_target_basis)
+    target_basis_spell_.report(kBadTargetBasis);
+  else
+    target_basis_spell_.clear();
   bool bad_goal_basis = false;
   for (const ExtraGoal& e : extra_goals_) {
     const gdx::Node3D node = gdx::Node3D::cast(self.get_node_or_null(e.target));
@@ -946,6 +951,7 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
     goal_basis_spell_.clear();
 
   options_.use_pole = false;
+  bool bad_pole = false;
   if (!pole_target_.is_empty()) {
     const gdx::Node3D pole = gdx::Node3D::cast(self.get_node_or_null(pole_target_));
     if (pole) {  // a missing node is a configuration warning
@@ -956,12 +962,15 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
                                                                     glm::dvec3(reach)))) {
         options_.use_pole = true;
         options_.pole_in_base = pole_in_base;
-        pole_spell_.clear();
       } else {
-        pole_spell_.report(kBadPole);  // the solve goes on without the pole
+        bad_pole = true;  // the solve goes on without the pole
       }
     }
   }
+  if (bad_pole)
+    pole_spell_.report(kBadPole);
+  else
+    pole_spell_.clear();
   return true;
 }
 
