@@ -208,7 +208,7 @@ class HierarchicalStep {
   bool hierarchical(const double* params, const Eigen::VectorXd& residual, double mu, double posture_gain) {
     const auto J = ws_.jacobian.topLeftCorner(rows_, cols_);
     auto M = ws_.row_square.topLeftCorner(rows_, rows_);
-    M.noalias() = J * J.transpose();
+    gram(M);
     auto y = ws_.dof_vec_a.head(cols_);
     y.setZero();
     for (int l = 0; l < served_; ++l) {
@@ -260,6 +260,43 @@ class HierarchicalStep {
       for (int d = 0; d < tree_.dof_count(); ++d)
         if (!is_active(d)) ws_.step[d] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]);
     return ws_.step.allFinite();
+  }
+
+  // M = J J^T from the tree's structure: goals a and b share only the columns of their common
+  // supports, which are the common prefix of their root-first support lists (Pinocchio's
+  // "supports"), so each 3x3 block sums over those few columns instead of all of them.
+  template <class Gram>
+  void gram(Gram& M) const {
+    const double* J = ws_.jacobian.data();
+    const Eigen::Index ld = ws_.jacobian.outerStride();
+    const int goals = problem_.goals.size;
+    for (int a = 0; a < goals; ++a) {
+      const int ea = problem_.goals[ws_.goal_order[a]].goal.effector;
+      const int* sa = tree_.support_list(ea);
+      const int na = tree_.support_count(ea);
+      for (int b = 0; b <= a; ++b) {
+        const int eb = problem_.goals[ws_.goal_order[b]].goal.effector;
+        const int* sb = tree_.support_list(eb);
+        const int common_end = std::min(na, tree_.support_count(eb));
+        double block[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+        auto add_column = [&](int c) {
+          const double* col = J + c * ld;
+          for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) block[i][k] += col[3 * a + i] * col[3 * b + k];
+        };
+        for (int s = 0; s < common_end && sa[s] == sb[s]; ++s) {
+          const int j = sa[s];
+          if (j == 0 && tree_.floating_root())
+            for (int d = 0; d < 3; ++d) add_column(ws_.dof_column[d]);
+          for (int d = 0; d < tree_.dof_count_of(j); ++d) add_column(ws_.dof_column[tree_.dof_offset(j) + d]);
+        }
+        for (int i = 0; i < 3; ++i)
+          for (int k = 0; k < 3; ++k) {
+            M(3 * a + i, 3 * b + k) = block[i][k];
+            M(3 * b + k, 3 * a + i) = block[i][k];
+          }
+      }
+    }
   }
 
   // Factors G = M[0:b, 0:b] + ridge (Cholesky, in place in ws.gram_factor's lower triangle).
