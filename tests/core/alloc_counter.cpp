@@ -11,7 +11,7 @@ extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(con
                                                          void (*free_hook)(const volatile void*));
 #endif
 
-#if !defined(__SANITIZE_ADDRESS__)
+#if !defined(__SANITIZE_ADDRESS__) && !defined(_WIN32)
 // Eigen allocates with std::malloc directly (not operator new), so the count is taken at malloc:
 // this executable's malloc family interposes glibc's and forwards to glibc's own entry points.
 // libstdc++'s operator new calls malloc, so containers are counted too.
@@ -40,6 +40,31 @@ void count_allocation(const volatile void*, std::size_t) { g_allocations.fetch_a
 void ignore_free(const volatile void*) {}
 [[maybe_unused]] const int g_hooks_installed = __sanitizer_install_malloc_and_free_hooks(count_allocation, ignore_free);
 }  // namespace
+#elif defined(_WIN32)
+// Windows (mingw-w64, scripts/test runs it under wine): malloc is msvcrt.dll's, reached through an
+// import stub that cannot be replaced by a definition of the same name (the import library's
+// member defines it too). The test executable is linked with -Wl,--wrap=malloc,--wrap=calloc,
+// --wrap=realloc (SConstruct, windows_tests), so every call in the executable, Eigen's and the
+// statically linked libstdc++'s operator new's included, lands here; __real_* is the CRT's.
+// msvcrt has no posix_memalign/aligned_alloc, and Eigen does not use _aligned_malloc on x86-64
+// (malloc is 16-byte aligned there).
+extern "C" {
+void* __real_malloc(std::size_t);
+void* __real_calloc(std::size_t, std::size_t);
+void* __real_realloc(void*, std::size_t);
+void* __wrap_malloc(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __real_malloc(size);
+}
+void* __wrap_calloc(std::size_t n, std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __real_calloc(n, size);
+}
+void* __wrap_realloc(void* p, std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return __real_realloc(p, size);
+}
+}
 #else
 extern "C" {
 void* malloc(std::size_t size) {
