@@ -36,7 +36,7 @@ struct SolveResult {
   // kMaxIterations, or kUnreachable when the pose it stopped at is provably a best reach).
   bool budget_exhausted = false;
   int restarts = 0;  // restarts run (SolverOptions::max_restarts); iterations include theirs
-  // Escapes from stuck poses inside the solver runs (at most 4 per run, restarts' included;
+  // Escapes from stuck poses inside the solver runs (at most 5 per run, restarts' included;
   // docs/solvers.md, "When a solve is stuck"). Deterministic, like everything else here.
   int escapes = 0;
   Message message;          // why, for kInvalidInput (names the bad field); empty otherwise

@@ -1,6 +1,7 @@
 // Analytic two-bone IK (src/core/solvers/two_bone.cpp): exact round trips, pole alignment, out of
 // reach, too close, zero-length bone, hinge elbow limits, input rules, no allocation.
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <string>
 #include <vector>
@@ -8,6 +9,7 @@
 #include "alloc_counter.hpp"
 #include "core/kinematics.hpp"
 #include "core/so3.hpp"
+#include "humanoid.hpp"
 #include "solver_test_util.hpp"
 
 namespace ikchain {
@@ -210,6 +212,165 @@ TEST(TwoBone, RejectsWrongJointCountAndGoals) {
     EXPECT_EQ(r.reason, TerminationReason::kInvalidInput);
     EXPECT_NE(std::string(r.message.c_str()).find("position goal on the tip"), std::string::npos);
     EXPECT_EQ(q, q0);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Issue 16, item 17: a pole on Godot's SkeletonProfileHumanoid (T-pose rests, arms from the upper
+// arm, legs from the upper leg). The limb starts straight, so the elbow has no bend plane of its
+// own; on b0e1161 the ball elbow bent toward the pole, which put the elbow on the far side of the
+// root-tip line, and the root then turned the whole limb 180 deg about that line: joint positions
+// right, knee cap and elbow point facing away from the pole, the upper bone twisted 180 deg.
+
+struct HumanoidLimb {
+  const char* upper;
+  const char* lower;
+  const char* end;
+};
+constexpr HumanoidLimb kHumanoidLimbs[] = {{"LeftUpperLeg", "LeftLowerLeg", "LeftFoot"},
+                                           {"RightUpperLeg", "RightLowerLeg", "RightFoot"},
+                                           {"LeftUpperArm", "LeftLowerArm", "LeftHand"},
+                                           {"RightUpperArm", "RightLowerArm", "RightHand"}};
+
+// How well the knee or elbow bends the anatomical way, as cosines: the bend plane's normal
+// (u x v, u = the upper bone, v = the lower one) against the lower bone's +X, about which the
+// humanoid's knees and elbows bend with a positive angle, and against the same axis as the upper
+// bone carries it (its rest +X of the lower bone). Both are about 1 for a limb bent the anatomical
+// way and about -1 when the upper bone is twisted 180 deg about the limb (the same joint positions,
+// knee cap or elbow point turned away from the pole). Nothing to measure on a straight limb.
+struct BendAlignment {
+  double upper = 1.0, lower = 1.0;
+};
+BendAlignment bend_alignment(const Chain& c, const Workspace& ws) {
+  const glm::dvec3 u = ws.joint_origins[1] - ws.joint_origins[0], v = ws.tip - ws.joint_origins[1];
+  const glm::dvec3 normal = glm::cross(u, v);
+  if (glm::length(normal) < 1e-6 * glm::length(u) * glm::length(v)) return {};
+  const glm::dvec3 n = glm::normalize(normal), x(1, 0, 0);
+  return {glm::dot(ws.joint_orientations[0] * (c.rest_rotation(1) * x), n), glm::dot(ws.joint_orientations[1] * x, n)};
+}
+
+constexpr double kDegree = so3::kPi / 180.0;
+
+// The angle of the rotation taking q onto r (rad).
+double rotation_angle_between(const glm::dquat& q, const glm::dquat& r) {
+  return 2.0 * std::acos(std::min(1.0, std::abs(glm::dot(q, r))));
+}
+
+// The unit direction from the root-target line toward the pole.
+glm::dvec3 pole_side(const glm::dvec3& root, const glm::dvec3& target, const glm::dvec3& pole) {
+  const glm::dvec3 dir = glm::normalize(target - root);
+  const glm::dvec3 off = (pole - root) - dir * glm::dot(pole - root, dir);
+  return glm::normalize(off);
+}
+
+// Sampled natural poses (the upper bone swung up to 70 deg and twisted up to 30 deg from its rest,
+// the knee or elbow bent 0.3-2.2 rad about +X), solved from the T-pose with the pole in front of
+// the sampled knee: the tip reaches, and both bones' cap sides face the pole.
+TEST(TwoBone, Item17HumanoidPoleKeepsKneeCapAndElbowFacingThePole) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), bend(0.3, 2.2);
+  for (const HumanoidLimb& limb : kHumanoidLimbs) {
+    for (bool hinge : {false, true}) {
+      const Chain c = test::humanoid::chain({limb.upper, limb.lower}, limb.end, hinge);
+      Workspace ws(c, 1);
+      SolverOptions o = exact_options(c);
+      o.use_pole = true;
+      double worst_upper = 1.0, worst_lower = 1.0;
+      for (int t = 0; t < 200; ++t) {
+        // The sampled pose: a swing (rotation vector perpendicular to the bone, +Y) and a twist.
+        Eigen::VectorXd truth = Eigen::VectorXd::Zero(c.dof_count());
+        const glm::dvec3 swing = glm::dvec3(u(rng), 0.0, u(rng));
+        const glm::dvec3 rv = (70.0 * so3::kPi / 180.0) * std::abs(u(rng)) * glm::normalize(swing) +
+                              glm::dvec3(0.0, (30.0 * so3::kPi / 180.0) * u(rng), 0.0);
+        truth[0] = rv.x, truth[1] = rv.y, truth[2] = rv.z;
+        if (hinge) {
+          truth[3] = bend(rng);
+        } else {
+          truth[3] = bend(rng), truth[4] = 0.0, truth[5] = 0.0;
+        }
+        forward_kinematics(c, truth.data(), ws);
+        const glm::dvec3 root = ws.joint_origins[0], knee = ws.joint_origins[1];
+        const Goal g = Goal::position(ws.tip);
+        o.pole_in_base = knee + 0.5 * pole_side(root, ws.tip, knee);
+
+        Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());  // the T-pose: a straight limb
+        const SolveResult r = solve(kKind, c, Span<const Goal>(&g, 1), o, ws, p);
+        EXPECT_EQ(r.reason, TerminationReason::kConverged);
+        forward_kinematics(c, p.data(), ws);
+        EXPECT_LE(glm::length(ws.tip - g.target_position), 1e-9 * c.total_length());
+        EXPECT_LE(glm::length(ws.joint_origins[1] - knee), 1e-9 * c.total_length());  // positions right
+        const BendAlignment bent = bend_alignment(c, ws);
+        worst_upper = std::min(worst_upper, bent.upper);
+        worst_lower = std::min(worst_lower, bent.lower);
+      }
+      // Measured: a hinge elbow bends exactly the anatomical way (worst cosines 1.000); a ball elbow
+      // has no axis of its own, and its bend plane follows the pole (worst 0.47-0.54, where
+      // b0e1161 gave -0.91 to -1.00 on every limb: the 180 deg twist).
+      const double least = hinge ? 0.99 : 0.3;
+      EXPECT_GT(worst_upper, least) << limb.upper << (hinge ? " hinge" : " ball");
+      EXPECT_GT(worst_lower, least) << limb.lower << (hinge ? " hinge" : " ball");
+    }
+  }
+}
+
+// A fixed pole while the target moves smoothly from the T-pose (100 runs of 120 frames, warm
+// start): the first frame, which bends the straight limb to 0.85 of its length, turns each bone by
+// the ~32 deg that takes (on b0e1161: 180 deg about the limb, the upper bone twisted, for the ball
+// elbow); no later frame turns a bone by more than a few times the target's own turn seen from the
+// root; the knee or elbow bends the anatomical way throughout.
+TEST(TwoBone, Item17HumanoidFixedPoleTracksWithoutAFlip) {
+  std::mt19937 rng(170);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const HumanoidLimb& limb : kHumanoidLimbs) {
+    for (bool hinge : {false, true}) {
+      const Chain c = test::humanoid::chain({limb.upper, limb.lower}, limb.end, hinge);
+      Workspace ws(c, 1);
+      SolverOptions o = exact_options(c);
+      o.use_pole = true;
+      Eigen::VectorXd rest = Eigen::VectorXd::Zero(c.dof_count());
+      forward_kinematics(c, rest.data(), ws);
+      const glm::dvec3 root = ws.joint_origins[0], tip0 = ws.tip;
+      const double L = c.total_length();
+      // The pole in front of the knee cap / behind the elbow point as the rest pose shows it (the
+      // lower bone's local -Z: its +X bends it toward +Z).
+      o.pole_in_base = ws.joint_origins[1] + L * (ws.joint_orientations[1] * glm::dvec3(0, 0, -1));
+      double worst_first = 0.0, worst_later = 0.0, worst_target_step = 0.0, worst_bend = 1.0;
+      for (int run = 0; run < 100; ++run) {
+        const glm::dvec3 a(u(rng), u(rng), u(rng)), b(u(rng), u(rng), u(rng));
+        Eigen::VectorXd p = rest;
+        forward_kinematics(c, p.data(), ws);
+        glm::dquat last0 = ws.joint_orientations[0], last1 = ws.joint_orientations[1];
+        glm::dvec3 last_target = tip0;
+        for (int f = 1; f <= 120; ++f) {
+          // 0.15 L toward the root, then 0.15-0.4 L, wandering up to 0.3 L sideways.
+          const double s = (f - 1) / 119.0;
+          const glm::dvec3 pull = (root - tip0) * (0.15 + 0.25 * std::sin(0.5 * so3::kPi * s));
+          const glm::dvec3 target =
+              tip0 + pull + 0.15 * L * (std::sin(2.0 * so3::kPi * s) * a + (1.0 - std::cos(2.0 * so3::kPi * s)) * b);
+          const Goal g = Goal::position(target);
+          solve(kKind, c, Span<const Goal>(&g, 1), o, ws, p);
+          forward_kinematics(c, p.data(), ws);
+          const double turn = std::max(rotation_angle_between(last0, ws.joint_orientations[0]),
+                                       rotation_angle_between(last1, ws.joint_orientations[1]));
+          if (f == 1) {
+            worst_first = std::max(worst_first, turn);
+          } else {
+            worst_later = std::max(worst_later, turn);
+            worst_target_step = std::max(worst_target_step, glm::length(target - last_target) / L);
+          }
+          const BendAlignment bent = bend_alignment(c, ws);
+          worst_bend = std::min({worst_bend, bent.upper, bent.lower});
+          last0 = ws.joint_orientations[0], last1 = ws.joint_orientations[1];
+          last_target = target;
+        }
+      }
+      // Measured: first 31.8 deg, later <= 7.1 deg with the target moving <= 0.017 L a frame, worst
+      // bend cosine >= 0.99; b0e1161: first frame 180 deg (ball elbow), bend cosines -1.
+      EXPECT_LT(worst_first, 40.0 * kDegree) << limb.upper << (hinge ? " hinge" : " ball");
+      EXPECT_LT(worst_target_step, 0.02);  // the premise: a smooth target
+      EXPECT_LT(worst_later, 10.0 * kDegree) << limb.upper << (hinge ? " hinge" : " ball");
+      EXPECT_GT(worst_bend, 0.0) << limb.upper << (hinge ? " hinge" : " ball");
+    }
   }
 }
 

@@ -56,8 +56,9 @@ constexpr int kStallIterations = 3;
 // 1e-10 per iteration is never reached, and max_iterations runs out). CCD and FABRIK converge
 // linearly and do not ask (the value: docs/solvers.md, "Why these constants").
 constexpr double kCreepGain = 1e-2;
-// Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape).
-constexpr int kMaxEscapes = 4;
+// Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape): the
+// gentle first one and four full ones.
+constexpr int kMaxEscapes = 5;
 // An escape pays off when the solve then gets below kEscapeGain times the best cost before it. One
 // that led to a lower but not that much lower minimum found a nearby trap, and so would another:
 // when restarts are allowed (SolverOptions::max_restarts), the solve stops there and the restarts,
@@ -75,6 +76,14 @@ constexpr double kMinEscapeAngle = 1e-3;
 constexpr double kSecondUnpinFraction = 0.75;
 // The kick's amplitude per DOF (rad; metres for a slide): small enough to undo in a step or two.
 constexpr double kKickAmplitude = 0.15;
+// The gentle first escape turns no DOF by more than this (rad; metres for a slide): it only has to
+// leave the stationary point, and the iterations go on from nearby. Escaping with the full moves
+// first (a bound-resting knee to the middle of its range, an uncapped null-space step toward the
+// rest pose) made a tracked limb jump by up to 172 deg in one frame (issue 16, item 18).
+constexpr double kGentleStep = kKickAmplitude;
+// A solve stuck with a combined error of at most this fraction of the chain's length escapes
+// gently first (a tracking frame: the target moved a little since the last pose).
+constexpr double kGentleError = 0.05;
 
 // ------------------------------------------------------------------------------------------------
 // Reach bounds: when goals provably cannot be met (then a stuck pose is a best reach, not a trap).
@@ -243,7 +252,7 @@ class Escapes {
     if (state_ == kUnknown)
       state_ = provably_out_of_reach(chain_, goals_, options_.position_tolerance) ? kOutOfReach : kReachable;
     if (state_ == kOutOfReach || used_ >= kMaxEscapes) return false;
-    if (restarts_follow() && used_ > 0 && best_cost_ < best_at_escape_ &&
+    if (restarts_follow() && full_ > 0 && best_cost_ < best_at_escape_ &&
         !(best_cost_ < kEscapeGain * best_at_escape_))
       return false;
     best_at_escape_ = best_cost_;
@@ -253,10 +262,19 @@ class Escapes {
     double* before = ws_.params_trial.data();
     double* step = ws_.dof_vec_b.data();
     std::copy(params, params + n, before);
+    // The first escape of a solve stuck near its goals (the combined error sqrt(2 cost) within
+    // kGentleError of the chain's length: a tracking frame) is gentle (gentle(): no DOF turns by
+    // more than kGentleStep), so a straight knee on its limit with the target now a little closer
+    // folds out of it and the solve goes on from nearby, continuous frame to frame. The full
+    // escapes below follow when it is stuck again, or farther from its goals.
+    if (used_ == 1 && std::sqrt(2.0 * best_cost_) <= kGentleError * chain_.total_length() &&
+        gentle(active, before, step, params))
+      return true;
+    ++full_;
     // 0. Off the bounds: a minimum with joints resting on bounds is a constrained one that no
     //    null-space move leaves (the bound, not J, holds it). Every such joint moves off its bound
     //    (unpin()) and the solve starts again from there - on the first escape and the third.
-    if (used_ % 2 == 1 && unpin(active, params)) return true;
+    if (full_ % 2 == 1 && unpin(active, params)) return true;
     // 1. Toward the rest pose, in the null space of J, the hinges on a bound it would push out
     //    left out - kept when it moves the pose off the stationary point.
     linearize(params);
@@ -292,6 +310,33 @@ class Escapes {
  private:
   enum State { kUnknown, kReachable, kOutOfReach };
   bool restarts_follow() const { return options_.max_restarts > 0; }
+
+  // The gentle escape: the null-space step toward the rest pose and, failing that, the kick (steps
+  // 1 and 2 below), each scaled to turn no DOF by more than kGentleStep, no bound left. True when
+  // it moved params off the stationary point; else params are left at `before`.
+  bool gentle(int active, const double* before, double* step, double* params) {
+    linearize(params);
+    project_within_limits(active, params, step, [&](double* v) { toward_rest(active, params, v); });
+    if (largest(active, step) > kGentleStep) scale(active, kGentleStep / largest(active, step), step);
+    if (largest(active, step) > kMinEscapeAngle && move(step, before, params)) return true;
+    std::copy(before, before + chain_.dof_count(), params);
+    linearize(params);
+    kick_direction(active, params, step);
+    project_onto_null_space(active, step);
+    if (pushes_out(active, params, step)) scale(active, -1.0, step);
+    if (pushes_out(active, params, step)) {
+      linearize(params);
+      project_within_limits(active, params, step, [&](double* v) { kick_direction(active, params, v); });
+    }
+    const double size = largest(active, step);
+    if (size > 1e-9) {
+      scale(active, kGentleStep / size, step);
+      if (move(step, before, params)) return true;
+    }
+    std::copy(before, before + chain_.dof_count(), params);
+    return false;
+  }
+  int full_ = 0;  // full escapes made (after the gentle one)
   double best_at_escape_ = INFINITY;  // best_cost_ when the last escape was made
 
   // J (top rows of ws.jacobian) and the weighted residual (ws.residual) at params.
@@ -390,7 +435,7 @@ class Escapes {
       moved = true;
       if (wrap_across_bound(chain_, i, params)) continue;
       const JointLimits& l = chain_.limits(i);
-      const double toward_other_end = used_ >= 3 ? kSecondUnpinFraction : 0.5;
+      const double toward_other_end = full_ >= 3 ? kSecondUnpinFraction : 0.5;
       params[chain_.dof_offset(i)] =
           low ? l.hinge_min + toward_other_end * (l.hinge_max - l.hinge_min)
               : l.hinge_max - toward_other_end * (l.hinge_max - l.hinge_min);
@@ -403,7 +448,7 @@ class Escapes {
   // of its range; zero beyond the active DOFs.
   void kick_direction(int active, const double* params, double* v) const {
     for (int j = 0; j < chain_.dof_count(); ++j)
-      v[j] = j < active ? kKickAmplitude * std::sin(2.399963 * (j + 1) + (used_ - 1)) : 0.0;
+      v[j] = j < active ? kKickAmplitude * std::sin(2.399963 * (j + 1) + std::max(full_ - 1, 0)) : 0.0;
     for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
       const int o = chain_.dof_offset(i);
       if (hinge_blocked(chain_, i, params, v[o])) v[o] = -v[o];

@@ -11,11 +11,13 @@
 //     as it can (|l1 - l2| from the root, toward the target).
 //  2. Elbow. A ball elbow turns bone 2 by the minimal rotation, within the current bend plane
 //     (plane of u, v), to the exterior angle acos((d^2 - l1^2 - l2^2) / (2 l1 l2)). A straight or
-//     folded elbow has no bend plane: it bends toward the pole, else toward the target, else along
-//     a perpendicular of the root's rest frame (stable frame to frame). A hinge elbow can only turn
-//     about its axis w: u.R(phi)v = A + B cos(phi) + C sin(phi), solved for phi in closed form; of
-//     the two solutions the one within the hinge limits (clamped when none is) that gives the
-//     closest distance wins, ties going to the smaller change (continuity).
+//     folded elbow has no bend plane: it bends away from the pole (the elbow then lies on the
+//     pole's side of the root-tip line, and step 3 need not twist the limb about that line), else
+//     toward the target, else along a perpendicular of the root's rest frame (stable frame to
+//     frame). A hinge elbow can only turn about its axis w: u.R(phi)v = A + B cos(phi) + C sin(phi),
+//     solved for phi in closed form; of the two solutions the one within the hinge limits (clamped
+//     when none is) that gives the closest distance wins, ties going to the smaller change
+//     (continuity) - from a straight start with a pole, to the one that bends away from the pole.
 //  3. Root. Without a pole: the minimal rotation taking tip - o_0 onto the target direction (the
 //     bend plane turns as little as possible - "keep the current bend plane"). With a pole
 //     (options.use_pole, pole_in_base): the rotation taking the frame
@@ -39,8 +41,11 @@ namespace {
 
 // Hinge elbow: the change of angle phi about the unit base-frame axis `w` making |u + R(phi) v| closest
 // to d, within the hinge limits. u.R(phi)v = A + B cos(phi) + C sin(phi) (Rodrigues).
+// `away`: when nonzero (a straight start with a pole), a unit direction perpendicular to u that the
+// lower bone should bend toward, so that the elbow ends on the other side - the pole's - of the
+// root-tip line; between two equally close solutions it decides instead of the smaller change.
 double hinge_elbow_delta(const Chain& chain, const glm::dvec3& w, const glm::dvec3& u,
-                         const glm::dvec3& v, double d, const double* params) {
+                         const glm::dvec3& v, double d, const double* params, const glm::dvec3& away) {
   const double l1 = glm::length(u), l2 = glm::length(v);
   const double A = glm::dot(u, w) * glm::dot(v, w);
   const double B = glm::dot(u, v) - A;
@@ -53,16 +58,23 @@ double hinge_elbow_delta(const Chain& chain, const glm::dvec3& w, const glm::dve
   const double current = params[chain.dof_offset(1)];
   const JointLimits& lim = chain.limits(1);
   const bool limited = chain.has_limits(1);
-  double best_delta = 0.0, best_error = INFINITY;
+  double best_delta = 0.0, best_error = INFINITY, best_side = 0.0;
   for (double candidate : {psi + a, psi - a}) {
     double delta = geometric::wrap_angle(candidate);
     if (limited) delta = std::clamp(current + delta, lim.hinge_min, lim.hinge_max) - current;
     const double dist2 = l1 * l1 + l2 * l2 + 2.0 * (A + B * std::cos(delta) + C * std::sin(delta));
     const double error = std::abs(std::sqrt(std::max(dist2, 0.0)) - d);
     const double tie = 1e-12 * (l1 + l2);
-    if (error < best_error - tie || (error <= best_error + tie && std::abs(delta) < std::abs(best_delta))) {
+    // The lower bone turned by delta (Rodrigues about w), toward `away` or not.
+    const double side = glm::dot(v * std::cos(delta) + glm::cross(w, v) * std::sin(delta) +
+                                     w * (glm::dot(w, v) * (1.0 - std::cos(delta))),
+                                 away);
+    const bool better_tie = glm::dot(away, away) > 0.0 ? side > best_side + tie
+                                : std::abs(delta) < std::abs(best_delta);
+    if (error < best_error - tie || (error <= best_error + tie && better_tie)) {
       best_error = std::min(best_error, error);
       best_delta = delta;
+      best_side = side;
     }
   }
   return best_delta;
@@ -107,21 +119,40 @@ SolverStatus solve_two_bone(const Chain& chain, Span<const Goal> goals, const So
     const glm::dvec3 u = ws.joint_origins[1] - root;
     const glm::dvec3 v = ws.tip - ws.joint_origins[1];
     const glm::dquat& pre1 = ws.joint_pre_rotations[1];
+    const glm::dvec3 u_dir = u / l1;
+    glm::dvec3 side;
+    // A straight (or folded) elbow has no bend plane of its own. With a pole, the lower bone bends
+    // away from the pole as the limb will see it once the root has swung it onto the target
+    // direction (the pole's offset from the root-target line, turned back by that minimal swing):
+    // the elbow then ends on the pole's side of the line and the root's turn below is that swing
+    // plus a turn within the bend plane, no twist about the limb. (Bending toward the pole put the
+    // elbow on the far side, and the root then turned the limb 180 deg about the line: positions
+    // right, the upper bone twisted, knee caps facing backwards - issue 16, item 17.)
+    const bool straight = !geometric::perpendicular_part(v, u_dir, tiny, side);
+    glm::dvec3 away(0.0);
+    bool pole_side_known = false;
+    if (straight && options.use_pole) {
+      const glm::dvec3 limb = glm::length(ws.tip - root) > tiny ? ws.tip - root : u;
+      glm::dvec3 pole_off;
+      if (geometric::perpendicular_part(pole - root, dir, tiny, pole_off)) {
+        const glm::dvec3 seen = glm::conjugate(geometric::rotation_between(limb, dir)) * pole_off;
+        pole_side_known = geometric::perpendicular_part(-seen, u_dir, tiny, away);
+      }
+    }
     if (chain.joint_type(1) == JointType::kBall) {
-      const glm::dvec3 u_dir = u / l1;
-      glm::dvec3 side;
-      if (!geometric::perpendicular_part(v, u_dir, tiny, side) &&
-          !(options.use_pole && geometric::perpendicular_part(pole - root, u_dir, tiny, side)) &&
-          !geometric::perpendicular_part(to_target, u_dir, tiny, side) &&
-          !geometric::perpendicular_part(rest_frame * glm::dvec3(1, 0, 0), u_dir, 1e-6, side))
+      if (pole_side_known) {
+        side = away;
+      } else if (straight && !geometric::perpendicular_part(to_target, u_dir, tiny, side) &&
+                 !geometric::perpendicular_part(rest_frame * glm::dvec3(1, 0, 0), u_dir, 1e-6, side)) {
         side = geometric::any_perpendicular(u_dir);
+      }
       const double cos_bend = std::clamp((d * d - l1 * l1 - l2 * l2) / (2.0 * l1 * l2), -1.0, 1.0);
       const double sin_bend = std::sqrt(std::max(0.0, 1.0 - cos_bend * cos_bend));
       const glm::dvec3 v_new = l2 * (cos_bend * u_dir + sin_bend * side);
       geometric::turn_ball(chain, 1, pre1, geometric::rotation_between(v, v_new), 0.0, params);
     } else {
       const glm::dvec3 w = geometric::hinge_axis_in_base(chain, 1, pre1);
-      geometric::turn_hinge(chain, 1, hinge_elbow_delta(chain, w, u, v, d, params), 0.0, params);
+      geometric::turn_hinge(chain, 1, hinge_elbow_delta(chain, w, u, v, d, params, away), 0.0, params);
     }
     forward_kinematics(chain, params, ws);
   }
