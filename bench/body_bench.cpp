@@ -90,6 +90,7 @@ struct Replay {
   std::vector<body::Pose> poses;              // recorded
   std::vector<body::Targets> targets;
   double stature_m = 0.0;
+  double hips_height_m = 0.0;  // median over frames: the hips above the lowest joint
 };
 
 // Height of the rest pose (joints and End Sites), m.
@@ -322,12 +323,19 @@ int main(int argc, char** argv) {
       }
     }
     r.stature_m = rest_stature(r.model, r.clip);
+    std::vector<double> hips_heights;
+    for (const body::Pose& p : r.poses) {
+      double lowest = 1e300;
+      for (const glm::dvec3& o : p.origins) lowest = std::min(lowest, o.y);
+      hips_heights.push_back(p.origins[0].y - lowest);
+    }
+    r.hips_height_m = quantile(hips_heights, 0.5);
     int frames_outside = 0;
     const std::string ranges = ranges_json(r, frames_outside);
     std::fprintf(stderr, "[body] %s: %d joints, %d params, %zu frames at %.4f s, %g m per unit, rest stature %.3f m, "
-                 "recorded frames outside the joint ranges: %d\n",
+                 "hips %.3f m above the lowest joint, recorded frames outside the joint ranges: %d\n",
                  spec.name, r.model.joint_count, r.model.dof_count(), r.frames.size(), r.clip.frame_time,
-                 spec.metres_per_unit, r.stature_m, frames_outside);
+                 spec.metres_per_unit, r.stature_m, r.hips_height_m, frames_outside);
     std::string chains;
     for (const body::ChainSpec& c : r.model.chains) {
       std::string joints;
@@ -341,7 +349,8 @@ int main(int argc, char** argv) {
                   ", \"frames\": " + std::to_string(r.frames.size()) +
                   ", \"frame_time_s\": " + json_number(r.clip.frame_time) +
                   ", \"metres_per_unit\": " + json_number(spec.metres_per_unit) +
-                  ", \"rest_stature_m\": " + json_number(r.stature_m) + ", \"chains\": [" + chains +
+                  ", \"rest_stature_m\": " + json_number(r.stature_m) +
+                  ", \"hips_height_m\": " + json_number(r.hips_height_m) + ", \"chains\": [" + chains +
                   "], \"recorded_ranges\": " + ranges + "}";
 
     std::vector<std::unique_ptr<body::BodySolver>> solvers;
