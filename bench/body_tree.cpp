@@ -6,6 +6,8 @@
 #include "body_solvers.hpp"
 
 #ifdef IKCHAIN_BENCH_HAS_TREE
+#include <cmath>
+
 #include <Eigen/Dense>
 
 #include "core/so3.hpp"
@@ -119,6 +121,25 @@ std::vector<std::unique_ptr<BodySolver>> make_tree_solvers(const Model& m, const
       note = "tree params layout differs from the model's (dof_offset)";
       return out;
     }
+  // The tree's forward kinematics must be the model's (the recording's): same params, same
+  // effector poses, on a pose with every joint turned.
+  {
+    std::vector<double> q(m.dof_count());
+    for (int i = 0; i < m.dof_count(); ++i) q[i] = 0.3 * std::sin(1.0 + i);
+    Pose p;
+    forward_kinematics(m, q.data(), p);
+    ikchain::TreeWorkspace ws(*tree, 2 * kEffectorCount);
+    ikchain::tree_forward_kinematics(*tree, q.data(), ws);
+    for (int e = 0; e < kEffectorCount; ++e) {
+      const double dp = glm::length(ikchain::tree_effector_position(*tree, ws, e) - effector_position(m, p, e));
+      const double dq = 1.0 - std::abs(glm::dot(ikchain::tree_effector_orientation(*tree, ws, e),
+                                                effector_orientation(m, p, e)));
+      if (!(dp < 1e-9 && dq < 1e-12)) {
+        note = std::string("tree FK differs from the model's at effector ") + to_string(static_cast<Effector>(e));
+        return out;
+      }
+    }
+  }
   Targets rest;
   Pose pose;
   std::vector<double> zero(m.dof_count(), 0.0);
