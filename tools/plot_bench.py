@@ -220,6 +220,10 @@ def fmt_num(v, digits=3):
     return f"{v:.{digits}g}" if finite(v) else "-"
 
 
+def fmt_pct(v):
+    return f"{100 * v:.2f} %" if finite(v) else "-"
+
+
 def cmd_body_table(directory):
     """body.json as Markdown: the replay table, then the joint ranges against the recording."""
     data = load(directory, "body.json")
@@ -235,7 +239,7 @@ def cmd_body_table(directory):
     print("|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
     for r in data["records"]:
         print(f"| {r['clip']} | {r['solver']} | {r['start']} | {r['frames']} | "
-              f"{100 * r['success_rate']:.2f} % | {fmt_us(r['median_us'])} | {fmt_us(r['p99_us'])} | "
+              f"{fmt_pct(r['success_rate'])} | {fmt_us(r['median_us'])} | {fmt_us(r['p99_us'])} | "
               f"{fmt_num(r['mpjpe_mm'])} | {fmt_num(r['position_error_p50_mm'], 2)} / "
               f"{fmt_num(r['position_error_p99_mm'], 2)} / {fmt_num(r['position_error_max_mm'], 3)} | "
               f"{fmt_num(r['rotation_error_p50_deg'], 2)} / {fmt_num(r['rotation_error_p99_deg'], 2)} / "
