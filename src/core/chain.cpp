@@ -16,17 +16,81 @@ bool bounded(const glm::dvec3& v) {
   return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
 }
 
-// Length of a finite vector or quaternion without overflow or underflow in the squares (a plain
-// glm::length of (1e200, 0, 0) is inf, and normalising by it gives the zero vector).
-template <typename V>
-double scaled_length(const V& v) {
-  double m = 0.0;
-  for (int i = 0; i < V::length(); ++i) m = std::max(m, std::abs(v[i]));
-  if (!(m > 0.0) || !std::isfinite(m)) return m;  // 0, inf or NaN as they are
-  return m * glm::length(v / m);
-}
+using so3::scaled_length;
 
 }  // namespace
+
+BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char* offset_name, const char* axis_name) {
+  auto fail = [&](const char* field, const Message& m) {
+    BuildError e;
+    e.joint = i;
+    e.field = field;
+    e.message = m;
+    return e;
+  };
+  if (!bounded(j.offset_translation))
+    return fail(offset_name,
+                Message::format("joint %d: %s (%g, %g, %g) must be finite, each component within "
+                                "+-%g m", i, offset_name, j.offset_translation.x, j.offset_translation.y, j.offset_translation.z,
+                                kMaxMagnitude));
+  const double rest_len = scaled_length(j.rest_rotation);
+  if (!std::isfinite(rest_len) || rest_len < 1e-9)
+    return fail("rest_rotation", Message::format("joint %d: rest_rotation must be a finite non-zero quaternion", i));
+  JointLimits l = j.limits;
+  // The axis a joint type does not use is stored as its default, so the chain holds no NaN.
+  glm::dvec3 axis(0.0, 0.0, 1.0);
+  if (j.type == JointType::kPrismatic) {
+    axis = j.hinge_axis;
+    l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
+    const double len = scaled_length(axis);
+    if (!std::isfinite(len) || len < 1e-9)
+      return fail(axis_name,
+                  Message::format("joint %d: %s (the slide axis) must be a finite non-zero vector", i, axis_name));
+    axis /= len;
+    if (!l.has_hinge_limit || !bounded(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
+      return fail("limits.hinge_min",
+                  Message::format("joint %d: a prismatic joint needs has_hinge_limit with finite hinge_min <= "
+                                  "hinge_max (its slide range, m)", i));
+  } else if (j.type == JointType::kHinge) {
+    axis = j.hinge_axis;
+    l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
+    const double len = scaled_length(axis);
+    if (!std::isfinite(len) || len < 1e-9)
+      return fail(axis_name, Message::format("joint %d: %s must be a finite non-zero vector", i, axis_name));
+    axis /= len;
+    if (l.has_hinge_limit) {
+      if (!std::isfinite(l.hinge_min) || !std::isfinite(l.hinge_max))
+        return fail("limits.hinge_min", Message::format("joint %d: hinge_min/hinge_max must be finite", i));
+      if (l.hinge_min > l.hinge_max)
+        return fail("limits.hinge_min",
+                    Message::format("joint %d: hinge_min (%g) > hinge_max (%g)", i, l.hinge_min, l.hinge_max));
+    }
+  } else if (j.type == JointType::kBall) {
+    const double len = scaled_length(l.twist_axis);
+    if (!std::isfinite(len) || len < 1e-9)
+      return fail("limits.twist_axis",
+                  Message::format("joint %d: limits.twist_axis must be a finite non-zero vector", i));
+    l.twist_axis /= len;
+    if (l.has_cone_limit && !(l.cone_angle >= 0.0 && l.cone_angle <= so3::kPi))
+      return fail("limits.cone_angle",
+                  Message::format("joint %d: cone_angle must be in [0, pi], got %g", i, l.cone_angle));
+    if (l.has_twist_limit) {
+      if (!(l.twist_min >= -so3::kPi && l.twist_max <= so3::kPi))
+        return fail("limits.twist_min",
+                    Message::format("joint %d: twist_min/twist_max must be within [-pi, pi]", i));
+      if (l.twist_min > l.twist_max)
+        return fail("limits.twist_min",
+                    Message::format("joint %d: twist_min (%g) > twist_max (%g)", i, l.twist_min, l.twist_max));
+    }
+  } else {
+    return fail("type", Message::format("joint %d: unknown joint type", i));
+  }
+  out = j;
+  out.rest_rotation = glm::normalize(j.rest_rotation / rest_len);
+  out.hinge_axis = axis;
+  out.limits = l;
+  return BuildError();
+}
 
 ChainBuilder& ChainBuilder::add_joint(const JointDesc& joint) {
   joints_.push_back(joint);
@@ -80,64 +144,17 @@ Message ChainBuilder::build(Chain& out) const {
 
   int dofs = 0;
   for (int i = 0; i < n; ++i) {
-    const JointDesc& j = joints_[i];
-    if (!bounded(j.offset_translation))
-      return Message::format("joint %d: offset_translation (%g, %g, %g) must be finite, each component within "
-                             "+-%g m", i, j.offset_translation.x, j.offset_translation.y, j.offset_translation.z,
-                             kMaxMagnitude);
-    const double rest_len = scaled_length(j.rest_rotation);
-    if (!std::isfinite(rest_len) || rest_len < 1e-9)
-      return Message::format("joint %d: rest_rotation must be a finite non-zero quaternion", i);
-    JointLimits l = j.limits;
-    // The axis a joint type does not use is stored as its default, so the chain holds no NaN.
-    glm::dvec3 axis(0.0, 0.0, 1.0);
-    if (j.type == JointType::kPrismatic) {
-      axis = j.hinge_axis;
-      l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
-      const double len = scaled_length(axis);
-      if (!std::isfinite(len) || len < 1e-9)
-        return Message::format("joint %d: hinge_axis (the slide axis) must be a finite non-zero vector", i);
-      axis /= len;
-      if (!l.has_hinge_limit || !bounded(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
-        return Message::format("joint %d: a prismatic joint needs has_hinge_limit with finite hinge_min <= hinge_max "
-                               "(its slide range, m)", i);
-    } else if (j.type == JointType::kHinge) {
-      axis = j.hinge_axis;
-      l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
-      const double len = scaled_length(axis);
-      if (!std::isfinite(len) || len < 1e-9)
-        return Message::format("joint %d: hinge_axis must be a finite non-zero vector", i);
-      axis /= len;
-      if (l.has_hinge_limit) {
-        if (!std::isfinite(l.hinge_min) || !std::isfinite(l.hinge_max))
-          return Message::format("joint %d: hinge_min/hinge_max must be finite", i);
-        if (l.hinge_min > l.hinge_max)
-          return Message::format("joint %d: hinge_min (%g) > hinge_max (%g)", i, l.hinge_min,
-                                 l.hinge_max);
-      }
-    } else if (j.type == JointType::kBall) {
-      const double len = scaled_length(l.twist_axis);
-      if (!std::isfinite(len) || len < 1e-9)
-        return Message::format("joint %d: limits.twist_axis must be a finite non-zero vector", i);
-      l.twist_axis /= len;
-      if (l.has_cone_limit && !(l.cone_angle >= 0.0 && l.cone_angle <= so3::kPi))
-        return Message::format("joint %d: cone_angle must be in [0, pi], got %g", i, l.cone_angle);
-      if (l.has_twist_limit) {
-        if (!(l.twist_min >= -so3::kPi && l.twist_max <= so3::kPi))
-          return Message::format("joint %d: twist_min/twist_max must be within [-pi, pi]", i);
-        if (l.twist_min > l.twist_max)
-          return Message::format("joint %d: twist_min (%g) > twist_max (%g)", i, l.twist_min,
-                                 l.twist_max);
-      }
-    } else {
-      return Message::format("joint %d: unknown joint type", i);
-    }
+    JointDesc j;
+    const BuildError error = normalize_joint(i, joints_[i], j);
+    if (!error.ok()) return error.message;
+    const JointLimits& l = j.limits;
+    const glm::dvec3& axis = j.hinge_axis;
     Chain::JointRecord& rec = c.joints_[i];
     rec.type = static_cast<uint8_t>(j.type);
     rec.dof_offset = dofs;
     dofs += j.type == JointType::kBall ? 3 : 1;
     rec.offset_translation = j.offset_translation;
-    c.rest_rotations_[i] = glm::normalize(j.rest_rotation / rest_len);
+    c.rest_rotations_[i] = j.rest_rotation;
     const glm::dquat& r = c.rest_rotations_[i];
     rec.rest_identity = (r.w == 1.0 && r.x == 0.0 && r.y == 0.0 && r.z == 0.0) ? 1 : 0;
     rec.hinge_axis = axis;

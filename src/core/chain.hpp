@@ -67,6 +67,20 @@ struct JointDesc {
   JointLimits limits;
 };
 
+// A build error as data: the joint, the field and a message saying why.
+struct BuildError {
+  int joint = -1;          // the offending joint, or -1
+  const char* field = "";  // "offset_translation", "limits.cone_angle", ...
+  Message message;         // "joint 2: hinge_min (1.5) > hinge_max (0.5)"
+  bool ok() const { return message.empty(); }
+};
+
+// Checks joint `index`'s fields and writes it normalised into `out` (unit rest rotation and axes;
+// the axis its type does not use set to the default), or names the bad field. Chains and trees
+// validate joints with it, each naming the offset and axis fields as its own struct does.
+BuildError normalize_joint(int index, const JointDesc& joint, JointDesc& out,
+                           const char* offset_name = "offset_translation", const char* axis_name = "hinge_axis");
+
 class Chain;
 
 class ChainBuilder {

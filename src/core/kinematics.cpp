@@ -99,25 +99,32 @@ glm::dvec3 aim_error(const glm::dvec3& axis_in_base, const glm::dvec3& direction
   return glm::normalize(perp) * angle;
 }
 
-glm::dvec3 goal_error(const Chain& chain, const Goal& g, const Workspace& ws) {
+}  // namespace
+
+glm::dvec3 goal_error_at(const Goal& g, const glm::dvec3& effector_position, const glm::dquat& effector_orientation,
+                         double on_point_radius) {
   switch (g.kind) {
     case GoalKind::kPosition:
-      return g.target_position - effector_position(chain, ws, g.effector);
+      return g.target_position - effector_position;
     case GoalKind::kOrientation:
-      return so3::log(glm::normalize(g.target_orientation) *
-                      glm::conjugate(effector_orientation(chain, ws, g.effector)));
-    case GoalKind::kAim: {
-      const glm::dvec3 a = glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis);
-      return aim_error(a, glm::normalize(g.aim_direction));
-    }
+      return so3::log(glm::normalize(g.target_orientation) * glm::conjugate(effector_orientation));
+    case GoalKind::kAim:
+      return aim_error(glm::normalize(effector_orientation * g.aim_axis), glm::normalize(g.aim_direction));
     case GoalKind::kAimAt: {
-      glm::dvec3 direction;
-      double distance;
-      if (!aim_at_direction(chain, ws, g, direction, distance)) return glm::dvec3(0.0);
-      return aim_error(glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis), direction);
+      const glm::dvec3 d = g.target_position - effector_position;
+      const double distance = glm::length(d);
+      if (!(distance > on_point_radius)) return glm::dvec3(0.0);
+      return aim_error(glm::normalize(effector_orientation * g.aim_axis), d / distance);
     }
   }
   return glm::dvec3(0.0);
+}
+
+namespace {
+
+glm::dvec3 goal_error(const Chain& chain, const Goal& g, const Workspace& ws) {
+  return goal_error_at(g, effector_position(chain, ws, g.effector), effector_orientation(chain, ws, g.effector),
+                       g.kind == GoalKind::kAimAt ? aim_at_on_point_radius(chain, g) : 0.0);
 }
 
 template <typename Sink>
@@ -171,32 +178,16 @@ void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspac
     if (g.kind == GoalKind::kAim || g.kind == GoalKind::kAimAt)
       aim_axis = glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis);
     if (g.kind == GoalKind::kAimAt) aim_at_defined = aim_at_direction(chain, ws, g, direction, distance);
+    const GoalLinearization lin{point, aim_axis, direction, distance, aim_at_defined};
     for (int j = 0; j < n; ++j) {
       const int o = chain.dof_offset(j);
       const int cnt = chain.dof_count_of(j);
       for (int d = 0; d < cnt; ++d) {
         glm::dvec3 col(0.0);
         if (j < k && chain.joint_type(j) == JointType::kPrismatic) {
-          // A slide along w moves the effector by w and turns nothing.
-          const glm::dvec3& w = ws.dof_axes[o];
-          if (g.kind == GoalKind::kPosition) col = w;
-          if (g.kind == GoalKind::kAimAt && aim_at_defined) col = glm::cross(direction, w) / distance;
+          col = translation_column(g.kind, ws.dof_axes[o], lin);
         } else if (j < k) {
-          const glm::dvec3& w = ws.dof_axes[o + d];
-          switch (g.kind) {
-            case GoalKind::kPosition: col = glm::cross(w, point - ws.joint_origins[j]); break;
-            case GoalKind::kOrientation: col = w; break;
-            // Only the part of the rotation perpendicular to the axis turns it.
-            case GoalKind::kAim: col = w - aim_axis * glm::dot(aim_axis, w); break;
-            // As kAim, plus the turn of the direction to the point as the effector moves
-            // (d x dx / distance, dx = w x (effector - o_j)): with it, -J^T e is the exact
-            // gradient of 0.5 angle^2 (d(angle) = -n.w + (d x n).dx / distance, n = unit e).
-            case GoalKind::kAimAt:
-              if (aim_at_defined)
-                col = w - aim_axis * glm::dot(aim_axis, w) +
-                      glm::cross(direction, glm::cross(w, point - ws.joint_origins[j])) / distance;
-              break;
-          }
+          col = rotation_column(g.kind, ws.dof_axes[o + d], point - ws.joint_origins[j], lin);
         }
         jacobian(row, o + d) = sw * col.x;
         jacobian(row + 1, o + d) = sw * col.y;
@@ -263,21 +254,24 @@ bool project_ball(const JointLimits& l, glm::dquat& q) {
 
 }  // namespace
 
-void project_joint_to_limits(const Chain& chain, int joint, double* params) {
-  if (!chain.has_limits(joint)) return;
-  const JointLimits& l = chain.limits(joint);
-  const int o = chain.dof_offset(joint);
-  if (chain.joint_type(joint) != JointType::kBall) {
-    params[o] = std::clamp(params[o], l.hinge_min, l.hinge_max);
+void project_joint_params(JointType type, const JointLimits& l, double* p) {
+  if (type != JointType::kBall) {
+    if (l.has_hinge_limit) p[0] = std::clamp(p[0], l.hinge_min, l.hinge_max);
     return;
   }
-  glm::dquat q = so3::exp(glm::dvec3(params[o], params[o + 1], params[o + 2]));
+  if (!l.has_cone_limit && !l.has_twist_limit) return;
+  glm::dquat q = so3::exp(glm::dvec3(p[0], p[1], p[2]));
   if (project_ball(l, q)) {
     const glm::dvec3 r = so3::log(q);
-    params[o] = r.x;
-    params[o + 1] = r.y;
-    params[o + 2] = r.z;
+    p[0] = r.x;
+    p[1] = r.y;
+    p[2] = r.z;
   }
+}
+
+void project_joint_to_limits(const Chain& chain, int joint, double* params) {
+  if (!chain.has_limits(joint)) return;
+  project_joint_params(chain.joint_type(joint), chain.limits(joint), params + chain.dof_offset(joint));
 }
 
 void project_to_limits(const Chain& chain, double* params) {
@@ -295,13 +289,11 @@ struct BallBounds {
   bool any() const { return on_cone || at_max || at_min; }
 };
 
-BallBounds ball_bounds(const Chain& chain, int joint, const double* params) {
+BallBounds ball_bounds(const JointLimits& l, const double* p) {
   BallBounds bounds;
-  if (chain.joint_type(joint) != JointType::kBall || !chain.has_limits(joint)) return bounds;
-  const JointLimits& l = chain.limits(joint);
+  if (!l.has_cone_limit && !l.has_twist_limit) return bounds;
   constexpr double kOnBound = 1e-10;  // rad; the projection's exp/log round trip leaves ~1e-15
-  const int o = chain.dof_offset(joint);
-  const glm::dvec3 r(params[o], params[o + 1], params[o + 2]);
+  const glm::dvec3 r(p[0], p[1], p[2]);
   bounds.r = r;
   // The common case first, without trigonometry: neither the swing angle nor |twist| exceeds the
   // rotation angle, itself at most |r| (cos(angle / 2) = cos(swing / 2) cos(twist / 2)).
@@ -330,18 +322,26 @@ BallBounds ball_bounds(const Chain& chain, int joint, const double* params) {
 
 }  // namespace
 
+bool ball_params_on_boundary(const JointLimits& limits, const double* p) {
+  return ball_bounds(limits, p).any();
+}
+
 bool ball_on_boundary(const Chain& chain, int joint, const double* params) {
-  return ball_bounds(chain, joint, params).any();
+  return chain.joint_type(joint) == JointType::kBall &&
+         ball_params_on_boundary(chain.limits(joint), params + chain.dof_offset(joint));
 }
 
 int ball_blocked(const Chain& chain, int joint, const double* params, const double* direction,
                  glm::dvec3 normals[2]) {
-  if (chain.joint_type(joint) != JointType::kBall || !chain.has_limits(joint)) return 0;
-  const JointLimits& l = chain.limits(joint);
+  if (chain.joint_type(joint) != JointType::kBall) return 0;
+  return ball_params_blocked(chain.limits(joint), params + chain.dof_offset(joint), direction, normals);
+}
+
+int ball_params_blocked(const JointLimits& l, const double* p, const double* direction, glm::dvec3 normals[2]) {
   const glm::dvec3 d(direction[0], direction[1], direction[2]);
   const double tolerance = 1e-9 * glm::length(d);
   if (!(tolerance > 0.0)) return 0;
-  const BallBounds bounds = ball_bounds(chain, joint, params);
+  const BallBounds bounds = ball_bounds(l, p);
   if (!bounds.any()) return 0;
   const bool on_cone = bounds.on_cone, at_max = bounds.at_max, at_min = bounds.at_min;
   const glm::dvec3& r = bounds.r;
@@ -383,24 +383,21 @@ int ball_blocked(const Chain& chain, int joint, const double* params, const doub
   return out;
 }
 
+bool joint_within_limits(JointType type, const JointLimits& l, const double* p, double slack) {
+  if (type != JointType::kBall) return !l.has_hinge_limit || (p[0] >= l.hinge_min - slack && p[0] <= l.hinge_max + slack);
+  if (!l.has_cone_limit && !l.has_twist_limit) return true;
+  const glm::dquat q = so3::exp(glm::dvec3(p[0], p[1], p[2]));
+  glm::dquat swing;
+  double twist_angle = 0.0;
+  so3::swing_twist(q, l.twist_axis, swing, twist_angle);
+  if (l.has_twist_limit && (twist_angle < l.twist_min - slack || twist_angle > l.twist_max + slack)) return false;
+  return !(l.has_cone_limit && glm::length(so3::log(swing)) > l.cone_angle + slack);
+}
+
 bool within_limits(const Chain& chain, const double* params, double slack) {
   const int n = chain.joint_count();
-  for (int i = 0; i < n; ++i) {
-    if (!chain.has_limits(i)) continue;
-    const JointLimits& l = chain.limits(i);
-    const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) != JointType::kBall) {
-      if (params[o] < l.hinge_min - slack || params[o] > l.hinge_max + slack) return false;
-      continue;
-    }
-    const glm::dquat q = so3::exp(glm::dvec3(params[o], params[o + 1], params[o + 2]));
-    glm::dquat swing;
-    double twist_angle = 0.0;
-    so3::swing_twist(q, l.twist_axis, swing, twist_angle);
-    if (l.has_twist_limit && (twist_angle < l.twist_min - slack || twist_angle > l.twist_max + slack))
-      return false;
-    if (l.has_cone_limit && glm::length(so3::log(swing)) > l.cone_angle + slack) return false;
-  }
+  for (int i = 0; i < n; ++i)
+    if (!joint_within_limits(chain.joint_type(i), chain.limits(i), params + chain.dof_offset(i), slack)) return false;
   return true;
 }
 

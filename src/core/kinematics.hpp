@@ -43,6 +43,12 @@ double aim_at_on_point_radius(const Chain& chain, const Goal& goal);
 bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
                       double& distance);
 
+// One goal's error (desired - current, unweighted; goal.hpp) for an effector at this position and
+// orientation (base space); kAimAt counts as met nearer to its point than on_point_radius (m).
+// Chains and trees measure goals with it.
+glm::dvec3 goal_error_at(const Goal& goal, const glm::dvec3& effector_position, const glm::dquat& effector_orientation,
+                         double on_point_radius);
+
 // Goal::pose with the chain's length as the characteristic length, times rotation_weight (1: a
 // radian of orientation error counts like one chain length of position error).
 inline std::array<Goal, 2> pose_goals(const Chain& chain, const glm::dvec3& position_in_base,
@@ -80,9 +86,59 @@ GoalErrors measure_goals(const Chain& chain, Span<const Goal> goals, const Works
 void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
                       Eigen::Ref<Eigen::MatrixXd> jacobian);
 
+// What a goal's Jacobian columns depend on besides the DOF (compute_jacobian, the tree's Jacobian).
+struct GoalLinearization {
+  glm::dvec3 point{0.0};      // kPosition, kAimAt: the effector's position
+  glm::dvec3 aim_axis{0.0};   // kAim, kAimAt: its aim axis in base space (unit)
+  glm::dvec3 direction{0.0};  // kAimAt: unit direction to the point, when aim_at_defined
+  double distance = 0.0;      // kAimAt: distance to the point
+  bool aim_at_defined = false;
+};
+// The column of a rotational DOF turning about base-frame axis w, with `lever` = effector - the
+// joint's origin: the change of the goal's "current" side per radian.
+inline glm::dvec3 rotation_column(GoalKind kind, const glm::dvec3& w, const glm::dvec3& lever,
+                                  const GoalLinearization& lin) {
+  switch (kind) {
+    case GoalKind::kPosition: return glm::cross(w, lever);
+    case GoalKind::kOrientation: return w;
+    // Only the part of the rotation perpendicular to the axis turns it.
+    case GoalKind::kAim: return w - lin.aim_axis * glm::dot(lin.aim_axis, w);
+    // As kAim, plus the turn of the direction to the point as the effector moves
+    // (d x dx / distance, dx = w x lever): with it, -J^T e is the exact gradient of 0.5 angle^2
+    // (d(angle) = -n.w + (d x n).dx / distance, n = unit e).
+    case GoalKind::kAimAt:
+      if (!lin.aim_at_defined) return glm::dvec3(0.0);
+      return w - lin.aim_axis * glm::dot(lin.aim_axis, w) +
+             glm::cross(lin.direction, glm::cross(w, lever)) / lin.distance;
+  }
+  return glm::dvec3(0.0);
+}
+// The column of a translational DOF (a slide, a floating root) along base-frame direction w: it
+// moves the effector by w and turns nothing.
+inline glm::dvec3 translation_column(GoalKind kind, const glm::dvec3& w, const GoalLinearization& lin) {
+  if (kind == GoalKind::kPosition) return w;
+  if (kind == GoalKind::kAimAt && lin.aim_at_defined) return glm::cross(lin.direction, w) / lin.distance;
+  return glm::dvec3(0.0);
+}
+
 // params += step, capping any joint's rotation at max_step_angle (0 = none) and keeping ball
 // rotation vectors at angle <= pi. `step` has dof_count entries.
 void apply_step(const Chain& chain, const double* step, double max_step_angle, double* params);
+
+// Joint-space limits (hinge range, cone swing, twist range), one joint at a time: the one mechanism
+// chains and trees share. `p` points at the joint's own params (1 or 3).
+void project_joint_params(JointType type, const JointLimits& limits, double* p);
+bool joint_within_limits(JointType type, const JointLimits& limits, const double* p, double slack = 1e-9);
+// A limited 1-DOF joint (hinge, slide) at `value` resting on a bound (within 1e-12) that a change
+// with the sign of `direction` would push out.
+inline bool one_dof_blocked(const JointLimits& l, double value, double direction) {
+  if (!l.has_hinge_limit) return false;
+  constexpr double kOnBound = 1e-12;
+  return (value <= l.hinge_min + kOnBound && direction < 0.0) || (value >= l.hinge_max - kOnBound && direction > 0.0);
+}
+// ball_blocked and ball_on_boundary (below) for a ball joint's own params `p`.
+int ball_params_blocked(const JointLimits& limits, const double* p, const double* direction, glm::dvec3 normals[2]);
+bool ball_params_on_boundary(const JointLimits& limits, const double* p);
 
 // Joint-space limits (hinge range, cone swing, twist range): project params onto the feasible set.
 void project_to_limits(const Chain& chain, double* params);
@@ -93,11 +149,7 @@ void project_joint_to_limits(const Chain& chain, int joint, double* params);
 // Jacobian solvers' limit-aware steps and of BFGS's projected steps (ball joints: ball_blocked).
 inline bool hinge_blocked(const Chain& chain, int joint, const double* params, double direction) {
   if (chain.joint_type(joint) == JointType::kBall) return false;
-  const JointLimits& l = chain.limits(joint);
-  if (!l.has_hinge_limit) return false;
-  const double angle = params[chain.dof_offset(joint)];
-  constexpr double kOnBound = 1e-12;
-  return (angle <= l.hinge_min + kOnBound && direction < 0.0) || (angle >= l.hinge_max - kOnBound && direction > 0.0);
+  return one_dof_blocked(chain.limits(joint), params[chain.dof_offset(joint)], direction);
 }
 // The same active set for a ball joint's cone and twist limits. A limit the joint rests on (swing
 // angle at cone_angle, twist angle at a bound, within 1e-10 rad) blocks a step of the joint's

@@ -1,5 +1,7 @@
 // Solver options: every field has its default here, with its unit. validate() names a bad field.
 #pragma once
+#include <cstdint>
+
 #include <glm/glm.hpp>
 
 #include "core/message.hpp"
@@ -49,7 +51,7 @@ struct SolverOptions {
   // the best pose over all runs is kept. Iterations and the time budget count every run. Without
   // restarts a run's escapes from stuck poses try harder (docs/solvers.md, "When a solve is stuck").
   int max_restarts = 0;        // >= 0
-  unsigned restart_seed = 1;   // any value
+  uint64_t restart_seed = 1;   // any value; all 64 bits seed the generator
 
   // --- pole (every solver)
   // A point in base space the chain's middle should bend toward (a knee or an elbow "pole vector").

@@ -3,6 +3,7 @@
 // Reference: Sola, Deray, Atchuthan, "A micro Lie theory for state estimation in robotics" (2018),
 // eq. (143)-(146) for the SO(3) left Jacobian.
 #pragma once
+#include <algorithm>
 #include <cmath>
 
 #include <glm/glm.hpp>
@@ -124,6 +125,16 @@ inline void fast_sincos(double x, double& sin_x, double& cos_x) {
   const int k = static_cast<int>(qi & 3);
   sin_x = kSinS[k] * s + kSinC[k] * c;
   cos_x = kSinS[k] * c - kSinC[k] * s;
+}
+
+// Length of a finite vector or quaternion without overflow or underflow in the squares (a plain
+// glm::length of (1e200, 0, 0) is inf, and normalising by it gives the zero vector).
+template <typename V>
+double scaled_length(const V& v) {
+  double m = 0.0;
+  for (int i = 0; i < V::length(); ++i) m = std::max(m, std::abs(v[i]));
+  if (!(m > 0.0) || !std::isfinite(m)) return m;  // 0, inf or NaN as they are
+  return m * glm::length(v / m);
 }
 
 inline bool finite(const glm::dvec3& v) {

@@ -142,12 +142,12 @@ using SolveFn = SolverStatus (*)(const Chain&, Span<const Goal>, const SolverOpt
 
 // The solver table (solve.hpp) and the function of each row, in SolverKind order.
 const SolverInfo kSolverTable[] = {
-    {SolverKind::kTwoBone, "two_bone", "Two Bone", 2, false, false, false, false},
-    {SolverKind::kCCD, "ccd", "Cyclic Coordinate Descent", 0, true, true, true, false},
-    {SolverKind::kJacobianPinv, "jacobian_pinv", "Jacobian Pseudo-Inverse", 0, true, true, true, true},
-    {SolverKind::kDLS, "dls", "Damped Least Squares", 0, true, true, true, true},
-    {SolverKind::kBFGS, "bfgs", "BFGS", 0, true, true, true, true},
-    {SolverKind::kFABRIK, "fabrik", "FABRIK", 0, true, false, true, false},
+    {SolverKind::kTwoBone, "two_bone", "Two Bone", 2, false, false, false, false, false},
+    {SolverKind::kCCD, "ccd", "Cyclic Coordinate Descent", 0, true, true, true, false, false},
+    {SolverKind::kJacobianPinv, "jacobian_pinv", "Jacobian Pseudo-Inverse", 0, true, true, true, true, false},
+    {SolverKind::kDLS, "dls", "Damped Least Squares", 0, true, true, true, true, true},
+    {SolverKind::kBFGS, "bfgs", "BFGS", 0, true, true, true, true, false},
+    {SolverKind::kFABRIK, "fabrik", "FABRIK", 0, true, false, true, false, false},
 };
 const SolveFn kSolverFunctions[] = {solve_two_bone, solve_ccd, solve_jacobian_pinv, solve_dls, solve_bfgs, solve_fabrik};
 static_assert(sizeof(kSolverTable) / sizeof(kSolverTable[0]) == kSolverKindCount, "one table row per SolverKind");

@@ -70,17 +70,24 @@ struct TreeWorkspace {
   std::vector<glm::dquat> joint_pre_rotations;  // pre_i
   std::vector<glm::dvec3> dof_axes;             // per DOF: base-frame rotation axis (or slide direction)
 
+  // The coupled solvers' linear algebra. Rows: 3 per goal, in level order (goal_order); columns:
+  // the DOFs that move any goal's effector (active_dofs), each scaled by 1 / sqrt(motion cost).
   Eigen::MatrixXd jacobian;       // (3 * max_goals) x dofs, weighted rows
-  Eigen::VectorXd residual;       // 3 * max_goals, weighted
-  Eigen::MatrixXd projected;      // (3 * max_goals) x dofs: a level's Jacobian in the null space above it
-  Eigen::MatrixXd row_square;     // (3 * max_goals)^2
-  Eigen::MatrixXd row_factor;     // (3 * max_goals)^2
-  Eigen::MatrixXd null_basis_rows;  // (3 * max_goals) x dofs: stacked rows of the levels solved so far
-  Eigen::MatrixXd null_basis_gram;  // (3 * max_goals)^2: their Gram matrix's factor
+  Eigen::MatrixXd projected;      // (3 * max_goals) x dofs: each level's rows in the null space above it
+  Eigen::MatrixXd row_square;     // (3 * max_goals)^2: the Gram matrix J J^T of every row
+  Eigen::MatrixXd row_factor;     // (3 * max_goals)^2: each level's damped matrix, factored in place
+  Eigen::MatrixXd gram_factor;    // (3 * max_goals)^2: the rows above a level, factored in place
+  Eigen::MatrixXd coupling;       // (3 * max_goals)^2: G^-1 A Jl^T
+  Eigen::VectorXd residual;       // 3 * max_goals, weighted, level order
+  Eigen::VectorXd residual_trial;
   Eigen::VectorXd row_vec_a, row_vec_b;
-  Eigen::VectorXd step, dof_vec_a, dof_scale;
+  Eigen::VectorXd step;           // dofs
+  Eigen::VectorXd dof_vec_a, dof_vec_b, dof_scale;
   Eigen::VectorXd params_trial, params_best, params_backup;
-  std::vector<uint8_t> dof_blocked;
+  std::vector<int> goal_order;    // max_goals: goal indices by level
+  std::vector<int> active_dofs;   // the DOF of each column
+  std::vector<int> dof_column;    // dofs: the column of each DOF, or -1
+  std::vector<int> dof_joint;     // dofs: the joint each DOF belongs to (-1: a floating root's translation)
 };
 
 // Moves `params` (tree.dof_count() entries) toward the goals. On kInvalidInput params are untouched

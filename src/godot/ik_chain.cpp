@@ -64,6 +64,22 @@ constexpr const char* kBadBase =
     "IKChain: the skeleton's global transform (or the base bone's pose) is not invertible: a zero scale? This frame "
     "was skipped and the last pose kept.";
 constexpr const char* kNonFinite = "IKChain: the solver produced a non-finite rotation; the pose was left unchanged.";
+// Problems that do not stop the frame: reported once per spell (IKChain::Spell).
+constexpr const char* kBadPole =
+    "IKChain: pole_target's global position is not finite or absurdly far (more than 1e6 chain lengths from the "
+    "root bone); the pole is ignored until it is back. Move pole_target near the limb, on the side the knee or "
+    "elbow should point to.";
+constexpr const char* kBadTargetBasis =
+    "IKChain: the target's basis is degenerate (a zero scale?), so it has no rotation: the tip's orientation goal "
+    "(use_target_rotation) is skipped, its position still reached, until the basis is valid. Give the target a "
+    "non-zero scale, or turn off use_target_rotation.";
+constexpr const char* kBadGoalBasis =
+    "IKChain: the target of an orientation goal (goals[], kind Orientation) has a degenerate basis (a zero "
+    "scale?), so it has no rotation: that goal is skipped until the basis is valid. Give its target a non-zero "
+    "scale.";
+// A pole farther than this many chain lengths from the root gives no usable direction (its
+// perpendicular part drowns in rounding): treated like a non-finite one.
+constexpr double kMaxPoleDistanceInChainLengths = 1e6;
 
 const char* reason_name(TerminationReason r) {
   switch (r) {
@@ -142,6 +158,15 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("set_deterministic", &IKChain::set_deterministic, {"enabled"});
   b.method("is_deterministic", &IKChain::is_deterministic);
   b.method("get_last_result", &IKChain::get_last_result);
+  b.method("get_last_reason", &IKChain::get_last_reason);
+  b.method("is_last_usable", &IKChain::is_last_usable);
+  b.method("is_last_reached", &IKChain::is_last_reached);
+  b.method("get_last_iterations", &IKChain::get_last_iterations);
+  b.method("get_last_initial_error", &IKChain::get_last_initial_error);
+  b.method("get_last_final_error", &IKChain::get_last_final_error);
+  b.method("get_last_position_error", &IKChain::get_last_position_error);
+  b.method("get_last_orientation_error", &IKChain::get_last_orientation_error);
+  b.method("get_last_microseconds", &IKChain::get_last_microseconds);
   b.method("solve_now", &IKChain::solve_now);
   b.method("get_chain_bones", &IKChain::get_chain_bones);
   // Also callable from scripts (as godot-cpp does for bound virtuals): Node has no bound
@@ -315,7 +340,11 @@ void IKChain::set_goal_mode(int64_t mode) {
 }
 
 void IKChain::set_aim_axis(const gdx::Vector3& axis) {
-  aim_axis_ = axis;
+  double x = 0, y = 0, z = 0;
+  if (!direction_or_report(kClass, "aim_axis", "Set the tip bone's axis that should point at the target, e.g. (0, 1, 0).",
+                           axis.x, axis.y, axis.z, x, y, z))
+    return;
+  aim_axis_ = gdx::Vector3{gdx::real_t(x), gdx::real_t(y), gdx::real_t(z)};
   settings_changed();
 }
 
@@ -381,7 +410,8 @@ void IKChain::set_max_restarts(int64_t n) {
 
 void IKChain::set_restart_seed(int64_t seed) {
   restart_seed_ = seed;
-  options_.restart_seed = unsigned(uint64_t(seed));  // any value; the same seed gives the same restarts
+  // All 64 bits (a negative seed is its two's complement): different seeds give different restarts.
+  options_.restart_seed = uint64_t(seed);
 }
 
 void IKChain::set_deterministic(bool on) {
@@ -391,24 +421,39 @@ void IKChain::set_deterministic(bool on) {
 
 // ---------------------------------------------------------------- script API
 
+// final_error, position_error, orientation_error and reached describe the pose the skeleton ends
+// with (after its influence blend); solver_final_error is the solver's own. The typed getters and
+// the Dictionary share these definitions, so they cannot disagree.
+gdx::String IKChain::get_last_reason() const {
+  return gdx::String(has_result_ ? reason_name(last_.reason) : "not_run");
+}
+bool IKChain::is_last_usable() const { return has_result_ && last_.usable(); }
+double IKChain::get_last_final_error() const { return is_last_usable() ? written_.combined : last_.final_error; }
+double IKChain::get_last_position_error() const {
+  return is_last_usable() ? written_.max_position : last_.final_position_error;
+}
+double IKChain::get_last_orientation_error() const {
+  return is_last_usable() ? written_.max_orientation : last_.final_orientation_error;
+}
+bool IKChain::is_last_reached() const {
+  return is_last_usable() && written_.max_position <= tolerance_ && written_.max_orientation <= orientation_tolerance_;
+}
+
 gdx::Dictionary IKChain::get_last_result() const {
   gdx::Dictionary d;
   auto put = [&d](const char* key, const gdx::Variant& value) { d.set(gdx::Variant(key), value); };
   // The same keys every time (zeros before the first solve), so scripts can read them unguarded.
-  const bool usable = has_result_ && last_.usable();
-  put("reason", gdx::Variant(has_result_ ? reason_name(last_.reason) : "not_run"));
+  const bool usable = is_last_usable();
+  put("reason", gdx::Variant(get_last_reason()));
   put("usable", gdx::Variant(usable));
-  put("iterations", gdx::Variant(int64_t(last_.iterations)));
-  put("initial_error", gdx::Variant(last_.initial_error));
-  // final_error, position_error, orientation_error and reached describe the pose the skeleton
-  // ends with (after its influence blend); solver_final_error is the solver's own.
-  put("final_error", gdx::Variant(usable ? written_.combined : last_.final_error));
+  put("iterations", gdx::Variant(get_last_iterations()));
+  put("initial_error", gdx::Variant(get_last_initial_error()));
+  put("final_error", gdx::Variant(get_last_final_error()));
   put("solver_final_error", gdx::Variant(last_.final_error));
-  put("position_error", gdx::Variant(usable ? written_.max_position : last_.final_position_error));
-  put("orientation_error", gdx::Variant(usable ? written_.max_orientation : last_.final_orientation_error));
-  put("microseconds", gdx::Variant(last_.elapsed_us));
-  put("reached", gdx::Variant(usable && written_.max_position <= tolerance_ &&
-                              written_.max_orientation <= orientation_tolerance_));
+  put("position_error", gdx::Variant(get_last_position_error()));
+  put("orientation_error", gdx::Variant(get_last_orientation_error()));
+  put("microseconds", gdx::Variant(get_last_microseconds()));
+  put("reached", gdx::Variant(is_last_reached()));
   put("budget_exhausted", gdx::Variant(last_.budget_exhausted));
   put("restarts", gdx::Variant(int64_t(last_.restarts)));
   put("escapes", gdx::Variant(int64_t(last_.escapes)));
@@ -697,7 +742,30 @@ bool IKChain::needs_rebuild(const gdx::Skeleton3D& skel) const {
          IKChainJoint::generation() != built_settings_generation_ ||
          // A bone renamed under our chain (the version does not count renames in every engine).
          (chain_ok_ && (skel.find_bone(root_bone_name_) != root_bone_index_ ||
-                        skel.find_bone(tip_bone_name_) != tip_bone_index_));
+                        skel.find_bone(tip_bone_name_) != tip_bone_index_)) ||
+         ancestry_changed(skel);
+}
+
+bool IKChain::ancestry_changed(const gdx::Skeleton3D& skel) const {
+  const int64_t count = skel.get_bone_count();
+  for (const auto& [bone, parent] : built_ancestry_)
+    if (bone >= count || skel.get_bone_parent(bone) != parent) return true;
+  return false;
+}
+
+void IKChain::record_ancestry(const gdx::Skeleton3D& skel) {
+  built_ancestry_.clear();
+  if (!skel || tip_bone_.empty()) return;
+  const int64_t count = skel.get_bone_count();
+  const int root = root_bone_.empty() ? -1 : int(skel.find_bone(text(root_bone_)));
+  int bone = int(skel.find_bone(text(tip_bone_)));
+  // Bounded by the bone count: a parent cycle cannot hang the walk.
+  for (int64_t steps = 0; bone >= 0 && bone < count && steps <= count; ++steps) {
+    const int parent = int(skel.get_bone_parent(bone));
+    built_ancestry_.emplace_back(bone, parent);
+    if (bone == root) break;
+    bone = parent;
+  }
 }
 
 void IKChain::rebuild(const gdx::Skeleton3D& skel) {
@@ -710,6 +778,7 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
   built_skeleton_id_ = skel.instance_id();
   built_skeleton_version_ = skel ? skel.get_version() : -1;
   built_settings_generation_ = IKChainJoint::generation();
+  record_ancestry(skel);
 
   SkeletonChainDesc desc;
   collect_chain_problems(skel, chain_problems_, &desc);
@@ -771,6 +840,12 @@ void IKChain::report_runtime(const char* message) {
   runtime_reported_.emplace_back(message);
 }
 
+void IKChain::Spell::report(const char* message) {
+  if (reported) return;
+  gdx::print_error(message, "IKChain::_process_modification_with_delta", __FILE__, __LINE__);
+  reported = true;
+}
+
 void IKChain::set_invalid_result(const char* message) {
   // The modification did nothing this frame: a defined result, the pose is left as it was.
   has_result_ = true;
@@ -822,19 +897,30 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
   const double length = mapping_.chain().total_length();
 
   goal_count_ = 0;
+  bool bad_target_basis = false;
   if (goal_mode_ == GOAL_MODE_AIM) {
     goal_buffer_[size_t(goal_count_++)] =
         Goal::aim_at(target_in_base, mapping_.aim_axis_in_effector(gdx::to_glm(aim_axis_)), 0, 1.0);
   } else {
     goal_buffer_[size_t(goal_count_++)] = Goal::position(target_in_base, 0, 1.0);
     if (use_target_rotation_ && rotation_weight_ > 0.0) {
-      // rotation_weight 1: a radian of orientation error costs as much as one chain length of
-      // position error.
-      goal_buffer_[size_t(goal_count_++)] = Goal::orientation(
-          mapping_.effector_orientation_for_tip_bone(base.rotation_in_base(target_m)), 0,
-          rotation_weight_ * length * length);
+      if (has_rotation(glm::dmat3(target_m))) {
+        // rotation_weight 1: a radian of orientation error costs as much as one chain length of
+        // position error.
+        goal_buffer_[size_t(goal_count_++)] = Goal::orientation(
+            mapping_.effector_orientation_for_tip_bone(base.rotation_in_base(target_m)), 0,
+            rotation_weight_ * length * length);
+      } else {
+        bad_target_basis = true;
+      }
     }
   }
+  // A spell ends on any frame without the problem (also when the spoiled part is no longer asked for).
+  if (bad_target_basis)
+    target_basis_spell_.report(kBadTargetBasis);
+  else
+    target_basis_spell_.clear();
+  bool bad_goal_basis = false;
   for (const ExtraGoal& e : extra_goals_) {
     const gdx::Node3D node = gdx::Node3D::cast(self.get_node_or_null(e.target));
     if (!node) continue;  // a configuration warning says so
@@ -843,7 +929,13 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
     switch (e.kind) {
       case GoalKind::kPosition: g = Goal::position(base.point_in_base(glm::dvec3(m[3])), e.effector, e.weight); break;
       case GoalKind::kOrientation:
-        g = Goal::orientation(base.rotation_in_base(m), e.effector, e.weight * length * length);
+        // Like the tip's orientation goal: rotation_weight scales every orientation goal.
+        if (!(rotation_weight_ > 0.0)) continue;
+        if (!has_rotation(glm::dmat3(m))) {
+          bad_goal_basis = true;
+          continue;
+        }
+        g = Goal::orientation(base.rotation_in_base(m), e.effector, e.weight * rotation_weight_ * length * length);
         break;
       default:
         g = Goal::aim_at(base.point_in_base(glm::dvec3(m[3])), e.axis_in_effector, e.effector,
@@ -853,17 +945,32 @@ bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
     goal_buffer_[size_t(goal_count_++)] = g;
   }
 
+  if (bad_goal_basis)
+    goal_basis_spell_.report(kBadGoalBasis);
+  else
+    goal_basis_spell_.clear();
+
   options_.use_pole = false;
+  bool bad_pole = false;
   if (!pole_target_.is_empty()) {
     const gdx::Node3D pole = gdx::Node3D::cast(self.get_node_or_null(pole_target_));
-    if (pole) {
+    if (pole) {  // a missing node is a configuration warning
       const glm::dvec3 pole_in_base = base.point_in_base(glm::dvec3(gdx::to_glm(pole.get_global_transform())[3]));
-      if (so3::finite(pole_in_base)) {
+      const glm::dvec3 root_in_base = bone_poses_[0].position;  // root_bone's origin, in its parent
+      const double reach = kMaxPoleDistanceInChainLengths * std::max(length, 1e-6);
+      if (so3::finite(pole_in_base) && glm::all(glm::lessThanEqual(glm::abs(pole_in_base - root_in_base),
+                                                                    glm::dvec3(reach)))) {
         options_.use_pole = true;
         options_.pole_in_base = pole_in_base;
+      } else {
+        bad_pole = true;  // the solve goes on without the pole
       }
     }
   }
+  if (bad_pole)
+    pole_spell_.report(kBadPole);
+  else
+    pole_spell_.clear();
   return true;
 }
 

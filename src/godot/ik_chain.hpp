@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -107,6 +108,17 @@ class IKChain {
   // ---- script API
   // The last solve: see get_last_result() in the class reference for the keys.
   gdx::Dictionary get_last_result() const;
+  // The same values without building a Dictionary (per-frame readers): each equals the key of
+  // get_last_result() it is named after.
+  gdx::String get_last_reason() const;
+  bool is_last_usable() const;
+  bool is_last_reached() const;
+  int64_t get_last_iterations() const { return int64_t(last_.iterations); }
+  double get_last_initial_error() const { return last_.initial_error; }
+  double get_last_final_error() const;
+  double get_last_position_error() const;
+  double get_last_orientation_error() const;
+  double get_last_microseconds() const { return last_.elapsed_us; }
   // Solves and writes the pose now (tools, tests); returns get_last_result().
   gdx::Dictionary solve_now();
   // Skeleton bone indices of the joints, root first (empty while the chain is not valid).
@@ -150,6 +162,8 @@ class IKChain {
                      std::vector<Problem>& unmovable) const;
   void rebuild(const gdx::Skeleton3D& skeleton);
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
+  bool ancestry_changed(const gdx::Skeleton3D& skeleton) const;
+  void record_ancestry(const gdx::Skeleton3D& skeleton);
   void watch_skeleton(const gdx::Skeleton3D& skeleton);
   // The solve of one frame; false when nothing was written.
   bool run(const gdx::Skeleton3D& skeleton);
@@ -200,6 +214,11 @@ class IKChain {
   int base_bone_ = -1;     // root_bone's parent, -1 = skeleton space
   gdx::String root_bone_name_, tip_bone_name_;  // for the per-frame rename check (no allocation)
   int root_bone_index_ = -1, tip_bone_index_ = -1;
+  // tip_bone's ancestry as built: (bone, its parent) from tip_bone up to root_bone (or the top of
+  // the skeleton when root_bone is not an ancestor). set_bone_parent() can reshape the chain
+  // without touching the bone count or the skeleton's version, so the per-frame check compares
+  // these parents (a few ptrcalls, no allocation).
+  std::vector<std::pair<int, int>> built_ancestry_;
   // Per-frame buffers, sized at rebuild.
   std::vector<BonePose> bone_poses_;
   std::vector<glm::dquat> old_rotations_, new_rotations_, blended_rotations_;
@@ -217,6 +236,14 @@ class IKChain {
   std::vector<ExtraGoal> extra_goals_;  // resolved at rebuild
 
   std::vector<std::string> runtime_reported_;
+  // A problem that does not stop the frame (the solve goes on without the part it spoils): one
+  // message when it starts, none while it lasts, again after a frame without it.
+  struct Spell {
+    bool reported = false;
+    void report(const char* message);
+    void clear() { reported = false; }
+  };
+  Spell pole_spell_, target_basis_spell_, goal_basis_spell_;
 
   // Last solve.
   bool has_result_ = false;

@@ -72,7 +72,11 @@ void IKChainGoal::set_weight(double weight) {
   changed();
 }
 void IKChainGoal::set_aim_axis(const gdx::Vector3& axis) {
-  aim_axis_ = axis;
+  double x = 0, y = 0, z = 0;
+  if (!direction_or_report(kClass, "aim_axis", "Set the bone's axis that should point at the target, e.g. (0, 1, 0).",
+                           axis.x, axis.y, axis.z, x, y, z))
+    return;
+  aim_axis_ = gdx::Vector3{gdx::real_t(x), gdx::real_t(y), gdx::real_t(z)};
   changed();
 }
 

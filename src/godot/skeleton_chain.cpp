@@ -129,23 +129,38 @@ double shape_length(const glm::dvec3* offsets, int joints, const glm::dvec3& tip
 
 }  // namespace
 
-glm::dquat rotation_of_basis(const glm::dmat3& basis) {
-  if (!finite(basis)) return glm::dquat(1.0, 0.0, 0.0, 0.0);
+namespace {
+// Gram-Schmidt on the basis' columns; false when one of them vanishes (a zero or degenerate
+// scale) or the basis is not finite.
+bool orthonormal_rotation(const glm::dmat3& basis, glm::dquat& out) {
+  if (!finite(basis)) return false;
   glm::dvec3 x = basis[0], y = basis[1], z = basis[2];
   const double lx = glm::length(x);
-  if (!(lx > 1e-12)) return glm::dquat(1.0, 0.0, 0.0, 0.0);
+  if (!(lx > 1e-12)) return false;
   x /= lx;
   y -= x * glm::dot(x, y);
   const double ly = glm::length(y);
-  if (!(ly > 1e-12)) return glm::dquat(1.0, 0.0, 0.0, 0.0);
+  if (!(ly > 1e-12)) return false;
   y /= ly;
   z -= x * glm::dot(x, z) + y * glm::dot(y, z);
   const double lz = glm::length(z);
-  if (!(lz > 1e-12)) return glm::dquat(1.0, 0.0, 0.0, 0.0);
+  if (!(lz > 1e-12)) return false;
   z /= lz;
   glm::dmat3 m(x, y, z);
   if (glm::determinant(m) < 0.0) m = -m;
-  return glm::normalize(glm::quat_cast(m));
+  out = glm::normalize(glm::quat_cast(m));
+  return true;
+}
+}  // namespace
+
+glm::dquat rotation_of_basis(const glm::dmat3& basis) {
+  glm::dquat q(1.0, 0.0, 0.0, 0.0);
+  return orthonormal_rotation(basis, q) ? q : glm::dquat(1.0, 0.0, 0.0, 0.0);
+}
+
+bool has_rotation(const glm::dmat3& basis) {
+  glm::dquat ignored;
+  return orthonormal_rotation(basis, ignored);
 }
 
 glm::dquat godot_slerp(const glm::dquat& from, const glm::dquat& to, double weight) {

@@ -97,6 +97,9 @@ struct SkeletonChainDesc {
 // orthonormalization (x, then y, then z), a reflection (det < 0) removed by negating the basis.
 // Identity for a degenerate or non-finite basis.
 glm::dquat rotation_of_basis(const glm::dmat3& basis);
+// False when rotation_of_basis() would fall back to identity: the basis is degenerate (a zero
+// scale on some axis) or not finite, so it has no rotation to pursue.
+bool has_rotation(const glm::dmat3& basis);
 
 // Godot's Quaternion::slerp (shortest path; linear when the two are within 1e-5 of parallel),
 // normalized, as Transform3D::interpolate_with applies it.

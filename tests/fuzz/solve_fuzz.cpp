@@ -394,12 +394,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::fprintf(stderr,
                  "options: max_iterations %d pos_tol %.17g ori_tol %.17g stall %.17g warm %d max_step %.17g "
                  "pinv_res %.17g halvings %d pinv_sing %.17g dls %.17g/%.17g/%.17g wolfe %.17g/%.17g ls %d pole %d "
-                 "(%.17g, %.17g, %.17g) budget %.17g restarts %d seed %u\n",
+                 "(%.17g, %.17g, %.17g) budget %.17g restarts %d seed %llu\n",
                  o.max_iterations, o.position_tolerance, o.orientation_tolerance, o.stall_tolerance, o.warm_start,
                  o.max_step_angle, o.pinv_residual_tolerance, o.pinv_max_halvings, o.pinv_singular_threshold,
                  o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping, o.bfgs_wolfe_c1, o.bfgs_wolfe_c2,
                  o.bfgs_max_line_search_steps, o.use_pole, o.pole_in_base.x, o.pole_in_base.y, o.pole_in_base.z,
-                 o.time_budget_usec, o.max_restarts, o.restart_seed);
+                 o.time_budget_usec, o.max_restarts, static_cast<unsigned long long>(o.restart_seed));
     std::fprintf(stderr, "solver %d, workspace goals %d, params:", static_cast<int>(kind), ws_goals);
     for (int i = 0; i < input.size(); ++i) std::fprintf(stderr, " %.17g", input[i]);
     std::fprintf(stderr, "\n");

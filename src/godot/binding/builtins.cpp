@@ -349,8 +349,17 @@ void Variant::assign_to(GDExtensionVariantPtr engine_variant, const Variant& val
 
 // ---- Variant -> value ----
 // The engine's to-type constructors read the Variant's payload as that type without converting,
-// so the type is always checked first. They assign into the destination, which must therefore
-// hold a valid (here: empty) value.
+// so the type is always checked first. They construct into the destination as uninitialized
+// memory (GDExtensionUninitializedTypePtr: a placement new, not an assignment), so a destination
+// that holds a value is destroyed first: constructing over it would leak what it owned (a
+// default Array or Dictionary owns a heap block; a String, NodePath or packed array its data).
+namespace {
+void construct_from_variant(GDExtensionTypeFromVariantConstructorFunc to_type, GDExtensionPtrDestructor dtor,
+                            GDExtensionTypePtr dst, GDExtensionConstVariantPtr v) {
+  dtor(dst);
+  to_type(dst, const_cast<GDExtensionVariantPtr>(v));
+}
+}  // namespace
 ScalarVariant decode_scalar(GDExtensionConstVariantPtr v) {
   ScalarVariant s;
   s.type = uint32_t(gde.variant_get_type(v));
@@ -372,18 +381,19 @@ bool variant_to(GDExtensionConstVariantPtr v, bool& out) { return scalar_to_bool
 bool variant_to(GDExtensionConstVariantPtr v, int64_t& out) { return scalar_to_int64(decode_scalar(v), out); }
 bool variant_to(GDExtensionConstVariantPtr v, double& out) { return scalar_to_double(decode_scalar(v), out); }
 bool variant_to(GDExtensionConstVariantPtr v, String& out) {
-  auto* mv = const_cast<GDExtensionVariantPtr>(v);
   switch (gde.variant_get_type(v)) {
-    case GDEXTENSION_VARIANT_TYPE_STRING: t.string_from_variant(out.ptr(), mv); return true;
+    case GDEXTENSION_VARIANT_TYPE_STRING:
+      construct_from_variant(t.string_from_variant, t.string.dtor, out.ptr(), v);
+      return true;
     case GDEXTENSION_VARIANT_TYPE_STRING_NAME: {
       StringName name;
-      t.string_name_from_variant(name.ptr(), mv);
+      construct_from_variant(t.string_name_from_variant, t.string_name.dtor, name.ptr(), v);
       out = String(name);
       return true;
     }
     case GDEXTENSION_VARIANT_TYPE_NODE_PATH: {
       NodePath path;
-      t.node_path_from_variant(path.ptr(), mv);
+      construct_from_variant(t.node_path_from_variant, t.node_path.dtor, path.ptr(), v);
       out = path.to_string();
       return true;
     }
@@ -391,9 +401,10 @@ bool variant_to(GDExtensionConstVariantPtr v, String& out) {
   }
 }
 bool variant_to(GDExtensionConstVariantPtr v, NodePath& out) {
-  auto* mv = const_cast<GDExtensionVariantPtr>(v);
   switch (gde.variant_get_type(v)) {
-    case GDEXTENSION_VARIANT_TYPE_NODE_PATH: t.node_path_from_variant(out.ptr(), mv); return true;
+    case GDEXTENSION_VARIANT_TYPE_NODE_PATH:
+      construct_from_variant(t.node_path_from_variant, t.node_path.dtor, out.ptr(), v);
+      return true;
     case GDEXTENSION_VARIANT_TYPE_STRING:
     case GDEXTENSION_VARIANT_TYPE_STRING_NAME: {
       String s;
@@ -406,13 +417,13 @@ bool variant_to(GDExtensionConstVariantPtr v, NodePath& out) {
 }
 bool variant_to(GDExtensionConstVariantPtr v, Dictionary& out) {
   if (gde.variant_get_type(v) != GDEXTENSION_VARIANT_TYPE_DICTIONARY) return false;
-  t.dictionary_from_variant(out.ptr(), const_cast<GDExtensionVariantPtr>(v));
+  construct_from_variant(t.dictionary_from_variant, t.dictionary.dtor, out.ptr(), v);
   return true;
 }
 
 bool variant_to(GDExtensionConstVariantPtr v, Array& out) {
   if (gde.variant_get_type(v) != GDEXTENSION_VARIANT_TYPE_ARRAY) return false;
-  t.array_from_variant(out.ptr(), const_cast<GDExtensionVariantPtr>(v));
+  construct_from_variant(t.array_from_variant, t.array.dtor, out.ptr(), v);
   return true;
 }
 bool variant_to(GDExtensionConstVariantPtr v, Vector3& out) {

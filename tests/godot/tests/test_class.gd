@@ -137,3 +137,156 @@ func test_out_of_range_properties_are_clamped_with_an_error() -> void:
 	ik.solver = 9
 	check_eq(ik.solver, IKChain.SOLVER_AUTO, "solver = 9")
 	ik.free()
+
+
+## Issue 16 item 9: assigning an Array property (joints, goals) from a script leaked one Array per
+## assignment (the binding constructed the argument over an already constructed Array). Every
+## script path to the setters (property, set(), call(), typed call) and the other builtin
+## arguments converted the same way (String, StringName, NodePath) must leave the engine's
+## tracked memory where it was.
+func test_property_assignments_do_not_leak() -> void:
+	var ik := IKChain.new()
+	var joint := IKChainJoint.new()
+	var goal := IKChainGoal.new()
+	var joints: Array[IKChainJoint] = [joint]
+	var goals: Array[IKChainGoal] = [goal]
+	var plain := []
+	const N := 5000
+	var paths := {
+		"ik.joints = a": func(): ik.joints = joints,
+		"ik.goals = a": func(): ik.goals = goals,
+		"ik.set(\"joints\", a)": func(): ik.set("joints", plain),
+		"ik.set(\"goals\", a)": func(): ik.set("goals", plain),
+		"ik.call(\"set_joints\", a)": func(): ik.call("set_joints", joints),
+		"ik.set_joints(a)": func(): ik.set_joints(joints),
+		"ik.set(\"root_bone\", String)": func(): ik.set("root_bone", "j0"),
+		"ik.set(\"tip_bone\", StringName)": func(): ik.set("tip_bone", &"tip"),
+		"ik.set(\"target\", NodePath)": func(): ik.set("target", NodePath("../T")),
+		"ik.set(\"pole_target\", String)": func(): ik.set("pole_target", "../P"),
+	}
+	for what in paths:
+		var assign: Callable = paths[what]
+		for i in 50:  # warm-up: first-use allocations (caches, interned names)
+			assign.call()
+		var before := OS.get_static_memory_usage()
+		for i in N:
+			assign.call()
+		var grown := OS.get_static_memory_usage() - before
+		# A leak of one Array (80 bytes) per assignment grows by 400 kB; allow 1 byte per call.
+		check_le(grown, N, "%s x %d: tracked memory growth (bytes)" % [what, N])
+	ik.free()
+
+
+## get_last_result()'s keys against the typed getters named after them (issue 16 item 16).
+func _check_getters_agree(ik: IKChain, what: String) -> void:
+	var r: Dictionary = ik.get_last_result()
+	check_eq(ik.get_last_reason(), r["reason"], what + ": get_last_reason()")
+	check_eq(ik.is_last_usable(), r["usable"], what + ": is_last_usable()")
+	check_eq(ik.is_last_reached(), r["reached"], what + ": is_last_reached()")
+	check_eq(ik.get_last_iterations(), r["iterations"], what + ": get_last_iterations()")
+	check_eq(ik.get_last_initial_error(), r["initial_error"], what + ": get_last_initial_error()")
+	check_eq(ik.get_last_final_error(), r["final_error"], what + ": get_last_final_error()")
+	check_eq(ik.get_last_position_error(), r["position_error"], what + ": get_last_position_error()")
+	check_eq(ik.get_last_orientation_error(), r["orientation_error"], what + ": get_last_orientation_error()")
+	check_eq(ik.get_last_microseconds(), r["microseconds"], what + ": get_last_microseconds()")
+
+
+## Issue 16 item 16: typed getters for the last solve (reason, errors, iterations, time), equal to
+## the Dictionary's keys before any solve, after a converged, an unreachable, a blended
+## (influence < 1) and an invalid solve, and cheaper to read than the Dictionary.
+func test_last_result_typed_getters() -> void:
+	var Rig := preload("res://lib/rig.gd")
+	var Arm := preload("res://lib/arm.gd")
+	var rng := RandomNumberGenerator.new()
+	rng.seed = 16
+	var goal := Arm.fk_tip_world(3, Arm.random_rotations(rng, 3))
+	var rig := Rig.make(3, IKChain.SOLVER_DLS, goal)
+	var ik: IKChain = rig["ik"]
+	_check_getters_agree(ik, "before any solve")
+	check_eq(ik.get_last_reason(), "not_run", "reason before any solve")
+	case_root.add_child(rig["container"])
+	await frames(2)
+	ik.solve_now()
+	_check_getters_agree(ik, "converged")
+	check_eq(ik.get_last_reason(), "converged", "reason of a reachable target")
+	check(ik.is_last_reached(), "reached a reachable target")
+	check(ik.get_last_iterations() >= 0 and ik.get_last_microseconds() > 0.0, "work and time reported")
+	(rig["target"] as Node3D).global_position = goal + (goal - Arm.root_joint_world()) * 5.0
+	ik.solve_now()
+	_check_getters_agree(ik, "out of reach")
+	check(not ik.is_last_reached() and ik.get_last_position_error() > 0.1, "out of reach: not reached, error shown")
+	ik.influence = 0.5
+	ik.solve_now()
+	_check_getters_agree(ik, "influence 0.5")
+	ik.influence = 1.0
+	ik.tip_bone = "no such bone"
+	ik.solve_now()
+	_check_getters_agree(ik, "misconfigured")
+	check_eq(ik.get_last_reason(), "invalid_input", "reason of a misconfigured chain")
+	check(not ik.is_last_usable(), "misconfigured: not usable")
+	# Cost: one typed read against one Dictionary (best of 3 rounds, loose: the Dictionary
+	# builds 15 entries and its String keys).
+	var best_typed := INF
+	var best_dict := INF
+	for round in 3:
+		var t0 := Time.get_ticks_usec()
+		for i in 2000:
+			ik.get_last_position_error()
+		var t1 := Time.get_ticks_usec()
+		for i in 2000:
+			ik.get_last_result()
+		var t2 := Time.get_ticks_usec()
+		best_typed = minf(best_typed, t1 - t0)
+		best_dict = minf(best_dict, t2 - t1)
+	check_le(best_typed * 2.0, best_dict, "2000 typed reads cost at most half of 2000 get_last_result() (us)")
+
+
+## Issue 16 item 10: aim_axis (IKChain and IKChainGoal) is normalised when set; a zero or
+## non-finite vector is rejected with an error naming the property, and the previous value stays.
+func test_aim_axis_normalised_or_rejected() -> void:
+	for obj in [IKChain.new(), IKChainGoal.new()]:
+		var what: String = obj.get_class()
+		obj.aim_axis = Vector3(0, 0, 2)
+		check(obj.aim_axis.is_equal_approx(Vector3(0, 0, 1)), "%s: (0, 0, 2) stored as (0, 0, 1), got %s" % [what, obj.aim_axis])
+		obj.set("aim_axis", Vector3(3, 4, 0))
+		check(obj.aim_axis.is_equal_approx(Vector3(0.6, 0.8, 0)), "%s: set() (3, 4, 0) stored as (0.6, 0.8, 0), got %s" % [what, obj.aim_axis])
+		obj.aim_axis = Vector3(1e30, 0, 0)
+		check(obj.aim_axis.is_equal_approx(Vector3(1, 0, 0)), "%s: (1e30, 0, 0) stored as (1, 0, 0), got %s" % [what, obj.aim_axis])
+		expect_error(what + ": aim_axis must be a finite, non-zero vector.*keeping the previous value", 3)
+		for bad in [Vector3.ZERO, Vector3(NAN, 1, 0), Vector3(0, INF, 0)]:
+			obj.aim_axis = bad
+			check_eq(obj.aim_axis, Vector3(1, 0, 0), "%s: %s rejected, the previous value kept" % [what, bad])
+		if obj is Node:
+			obj.free()
+
+
+## Issue 16 item 10: restart_seed keeps all 64 bits: 1 and 2^32 + 1 give different restarts, the
+## same seed the same result.
+func test_restart_seed_keeps_64_bits() -> void:
+	var Rig := preload("res://lib/rig.gd")
+	var Arm := preload("res://lib/arm.gd")
+	# A target behind the arm, one iteration per run: the best of 30 random restarts depends on
+	# every draw of the generator.
+	var goal := Arm.root_joint_world() + Arm.SKELETON_TRANSFORM.basis * Vector3(0.2, -0.3, 0.35)
+	var rig := Rig.make(3, IKChain.SOLVER_DLS, goal)
+	var ik: IKChain = rig["ik"]
+	var skel: Skeleton3D = rig["skeleton"]
+	ik.deterministic = true
+	ik.max_iterations = 1
+	ik.max_restarts = 30
+	case_root.add_child(rig["container"])
+	await frames(1)
+	var runs := {}
+	for seed_value in [1, 4294967297, 2, 1]:
+		ik.restart_seed = seed_value
+		check_eq(ik.restart_seed, seed_value, "restart_seed %d read back" % seed_value)
+		var r := ik.solve_now()
+		var pose := [r["final_error"]]
+		for name in ["j0", "j1", "j2"]:
+			pose.append(skel.get_bone_pose_rotation(skel.find_bone(name)))
+		check(int(r["restarts"]) > 0, "seed %d: restarts ran" % seed_value)
+		if runs.has(seed_value):
+			check_eq(pose, runs[seed_value], "seed %d twice: the same result" % seed_value)
+		runs[seed_value] = pose
+	check(runs[1] != runs[2], "seeds 1 and 2 give different restarts (the case depends on the seed)")
+	check(runs[1] != runs[4294967297], "seeds 1 and 2^32 + 1 give different restarts")

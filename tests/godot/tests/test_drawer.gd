@@ -365,3 +365,60 @@ func test_real_ik_chain() -> void:
 			"last bone ends at the solved tip")
 	check_eq(_segments(lines["limits"]), ceili(1.5 / (PI / 16)) + 2, "the knee's hinge arc + 2 radii")
 	check_eq(_segments(lines["target"]), 3, "target cross")
+
+
+## Issue 16 item 12: the gizmo with two IKChains of one skeleton selected. Each chain connected
+## its own skeleton_updated handler: the second was refused ("Signal 'skeleton_updated' is already
+## connected", an ERROR line the runner fails on) and that chain was drawn at the unsolved pose.
+## The gizmo's line cache (gizmo/ik_chain_gizmo_lines.gd, what the editor plugin draws) must draw
+## both at their solved poses, and drop the connection with the last chain.
+func test_gizmo_two_chains_on_one_skeleton() -> void:
+	const Lines := preload("res://addons/ikchain/gizmo/ik_chain_gizmo_lines.gd")
+	var skel := Arm.make_skeleton(N)
+	# A second arm on the same base: k0 -> k1 -> ktip.
+	var k0 := skel.add_bone("k0")
+	skel.set_bone_parent(k0, skel.find_bone("base"))
+	skel.set_bone_rest(k0, Transform3D(Basis(), Vector3(-0.2, 0.1, 0)))
+	var k1 := skel.add_bone("k1")
+	skel.set_bone_parent(k1, k0)
+	skel.set_bone_rest(k1, Transform3D(Basis(), Vector3(0, 0.4, 0)))
+	var ktip := skel.add_bone("ktip")
+	skel.set_bone_parent(ktip, k1)
+	skel.set_bone_rest(ktip, Transform3D(Basis(), Vector3(0, 0.3, 0)))
+	skel.reset_bone_poses()
+	case_root.add_child(skel)
+	var goals := {"A": Arm.fk_tip_world(N, ROTATIONS)}
+	var k0_world := skel.global_transform * skel.get_bone_global_pose(k0).origin
+	goals["B"] = k0_world + Vector3(-0.3, 0.4, 0.2).normalized() * 0.5
+	var chains := {}
+	for name in ["A", "B"]:
+		var target := Marker3D.new()
+		target.name = "Target" + name
+		case_root.add_child(target)
+		target.global_position = goals[name]
+		var ik := IKChain.new()
+		ik.name = "IK" + name
+		ik.root_bone = "j0" if name == "A" else "k0"
+		ik.tip_bone = "tip" if name == "A" else "ktip"
+		ik.solver = IKChain.SOLVER_DLS
+		skel.add_child(ik)
+		ik.target = ik.get_path_to(target)
+		chains[name] = ik
+	var lines := Lines.new()
+	var changed := {}
+	lines.lines_changed.connect(func(ik: Node3D): changed[ik.name] = changed.get(ik.name, 0) + 1)
+	lines.watch(chains["A"])
+	lines.watch(chains["B"])
+	lines.watch(chains["B"])  # a redraw watches again: nothing new
+	check_eq(skel.skeleton_updated.get_connections().size(), 1, "one connection for the skeleton's two chains")
+	await frames(3)
+	for name in ["A", "B"]:
+		var ik: IKChain = chains[name]
+		check(changed.get(StringName("IK" + name), 0) > 0, "chain %s: lines rebuilt in the skeleton's update" % name)
+		var bones: PackedVector3Array = lines.lines_of(ik)["bones"]
+		if check(bones.size() >= 2, "chain %s: bones drawn" % name):
+			_check_point(bones[bones.size() - 1], goals[name], "chain %s: drawn effector at its solved target" % name)
+	lines.unwatch(chains["A"].get_instance_id())
+	check_eq(skel.skeleton_updated.get_connections().size(), 1, "still connected for chain B")
+	lines.unwatch(chains["B"].get_instance_id())
+	check_eq(skel.skeleton_updated.get_connections().size(), 0, "disconnected with the last chain")

@@ -383,3 +383,132 @@ func test_renamed_root_bone_is_noticed() -> void:
 	ik.root_bone = "shoulder"
 	await frames(2)
 	check_eq(ik.get_last_result()["usable"], true, "usable again with the new name")
+
+
+## Issue 16 item 11: the goals of IKChainGoal as the class reference states them, one check per
+## sentence. The arm's pose from Arm.fk_chain gives every bone's frame, so each goal below is met
+## exactly by one pose; the rig's main target is that pose's tip.
+const ITEM11_ROTATIONS := [Vector3(0, 0, 0.7), Vector3(-0.5, 0, 0), Vector3(0, 0, 0.9)]
+
+
+func _item11_rig(goal: IKChainGoal, goal_world: Transform3D, tip_world: Vector3) -> Dictionary:
+	var rig := Rig.make(3, IKChain.SOLVER_DLS, tip_world)
+	var ik: IKChain = rig["ik"]
+	ik.max_iterations = 300
+	ik.deterministic = true
+	var marker := Node3D.new()
+	marker.name = "GoalTarget"
+	marker.transform = goal_world
+	rig["container"].add_child(marker)
+	if goal != null:
+		goal.target = NodePath("../../GoalTarget")
+		ik.goals = [goal]
+	return rig
+
+
+func _item11_pose() -> Array:
+	var rots := []
+	for v in ITEM11_ROTATIONS:
+		rots.append(Quaternion.from_euler(v))
+	var frames_world := []  # base, j0, j1, j2, tip
+	for t in Arm.fk_chain(3, rots):
+		frames_world.append(Arm.SKELETON_TRANSFORM * (t as Transform3D))
+	return frames_world
+
+
+## Captures each bone's global frame (world) in the next skeleton updates.
+func _item11_solve(rig: Dictionary) -> Dictionary:
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var cap := {}
+	skel.skeleton_updated.connect(func():
+		for name in ["j0", "j1", "j2", "tip"]:
+			cap[name] = skel.global_transform * skel.get_bone_global_pose(skel.find_bone(name))
+		cap["result"] = ik.get_last_result())
+	Rig.add_to(case_root, rig)
+	await frames(3)
+	return cap
+
+
+## "KIND_ORIENTATION: the bone takes the target's global rotation": bone_name's own frame turns
+## (j1 here), not its parent's.
+func test_orientation_goal_orients_its_own_bone() -> void:
+	var pose := _item11_pose()
+	var want: Transform3D = pose[2]  # j1
+	var g := IKChainGoal.new()
+	g.bone_name = "j1"
+	g.kind = IKChainGoal.KIND_ORIENTATION
+	var cap := await _item11_solve(_item11_rig(g, Transform3D(want.basis, Vector3(2, 2, 2)), (pose[4] as Transform3D).origin))
+	if check(not cap.is_empty(), "skeleton_updated"):
+		var got: Transform3D = cap["j1"]
+		check_le(got.basis.get_rotation_quaternion().angle_to(want.basis.get_rotation_quaternion()), 2e-3,
+				"j1 (bone_name) takes the target's rotation (rad)")
+		check_le((cap["tip"] as Transform3D).origin.distance_to((pose[4] as Transform3D).origin), 1e-3, "the tip still on its target (m)")
+
+
+## "KIND_AIM: aim_axis, in the frame of the bone named by bone_name, points at the target, from
+## that bone's end (the next chain bone's origin)": j1's axis, seen from j2's origin.
+func test_aim_goal_aims_its_own_bone() -> void:
+	var pose := _item11_pose()
+	var j1: Transform3D = pose[2]
+	var j2: Transform3D = pose[3]
+	var aim_axis := Vector3(1, 0, 0)
+	var g := IKChainGoal.new()
+	g.bone_name = "j1"
+	g.kind = IKChainGoal.KIND_AIM
+	g.aim_axis = aim_axis
+	var aim_point := j2.origin + j1.basis * aim_axis * 3.0
+	var cap := await _item11_solve(_item11_rig(g, Transform3D(Basis(), aim_point), (pose[4] as Transform3D).origin))
+	if check(not cap.is_empty(), "skeleton_updated"):
+		var got: Transform3D = cap["j1"]
+		var axis := (got.basis * aim_axis).normalized()
+		check_le(axis.angle_to(aim_point - (cap["j2"] as Transform3D).origin), 2e-3,
+				"j1's own aim_axis points at the target from j1's end (rad)")
+		check_le((cap["tip"] as Transform3D).origin.distance_to((pose[4] as Transform3D).origin), 1e-3, "the tip still on its target (m)")
+
+
+## rotation_weight "is used by use_target_rotation and by orientation goals": at 0 an orientation
+## goal has no effect (the pose equals the pose without it), at 1 it is met (above).
+func test_rotation_weight_scales_orientation_goals() -> void:
+	var pose := _item11_pose()
+	var tip: Vector3 = (pose[4] as Transform3D).origin
+	# A rotation for j1 the arm cannot take together with its tip on the target.
+	var twisted := Transform3D(Basis(Vector3(1, 0, 0), 1.2), Vector3(2, 2, 2))
+	var without := await _item11_solve(_item11_rig(null, twisted, tip))
+	for weight in [0.0, 1.0]:
+		var g := IKChainGoal.new()
+		g.bone_name = "j1"
+		g.kind = IKChainGoal.KIND_ORIENTATION
+		var rig := _item11_rig(g, twisted, tip)
+		rig["container"].name = "RigWeight%d" % int(weight)
+		(rig["ik"] as IKChain).rotation_weight = weight
+		var cap := await _item11_solve(rig)
+		if not check(not cap.is_empty() and not without.is_empty(), "weight %.0f: skeleton_updated" % weight):
+			continue
+		var moved := 0.0
+		for name in ["j0", "j1", "j2"]:
+			moved = maxf(moved, (cap[name] as Transform3D).basis.get_rotation_quaternion().angle_to(
+					(without[name] as Transform3D).basis.get_rotation_quaternion()))
+		if weight == 0.0:
+			check_le(moved, 1e-6, "rotation_weight 0: the orientation goal changes nothing (rad)")
+		else:
+			check(moved > 1e-2, "rotation_weight 1: the orientation goal moves the chain (%f rad)" % moved)
+
+
+## "With KIND_ORIENTATION and KIND_AIM the bone must be a joint of the chain ... A goal on a bone
+## it cannot move is a configuration warning, and the chain is not solved": an orientation goal on
+## tip_bone (not a joint without extend_tip_bone) and a position goal on root_bone are refused.
+func test_goal_on_a_bone_it_cannot_move_is_refused() -> void:
+	var pose := _item11_pose()
+	for c in [["tip", IKChainGoal.KIND_ORIENTATION], ["j0", IKChainGoal.KIND_POSITION]]:
+		var g := IKChainGoal.new()
+		g.bone_name = c[0]
+		g.kind = c[1]
+		var rig := _item11_rig(g, Transform3D(Basis(), Vector3(1, 1, 1)), (pose[4] as Transform3D).origin)
+		rig["container"].name = "Rig_" + c[0]
+		var ik: IKChain = rig["ik"]
+		Rig.add_to(case_root, rig)
+		await frames(2)
+		var w := " | ".join(ik._get_configuration_warnings())
+		check(w.contains("cannot move"), "goal kind %d on %s: a configuration warning, got: %s" % [c[1], c[0], w])
+		check_eq(ik.is_last_usable(), false, "goal kind %d on %s: the chain is not solved" % [c[1], c[0]])

@@ -171,6 +171,28 @@ func test_bones_added_at_run_time() -> void:
 	await _check_reaches(skel, ik, goal, "after a bone was added")
 
 
+## Issue 16 item 1: set_bone_parent() reshapes the chain without changing the bone count. The
+## chain must follow the new hierarchy (j0 -> j2 -> tip), not keep solving the old one and report
+## converged with the tip off the target.
+func test_bone_parent_changed_same_bone_count() -> void:
+	var rig := _rig(12)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	var j0 := skel.find_bone("j0")
+	var j2 := skel.find_bone("j2")
+	var count := skel.get_bone_count()
+	skel.set_bone_parent(j2, j0)  # j1 leaves the chain; j2 (0.45) and tip (0.3) stay
+	check_eq(skel.get_bone_count(), count, "bone count unchanged")
+	# A point 0.6 from j0's origin (fixed by the solve): reachable by 0.45 + 0.3 ball joints.
+	var j0_world := skel.global_transform * skel.get_bone_global_pose(j0).origin
+	var goal := j0_world + Vector3(0.3, 0.4, -0.2).normalized() * 0.6
+	(rig["target"] as Node3D).global_position = goal
+	await _check_reaches(skel, ik, goal, "after set_bone_parent(j2, j0)")
+	check_eq(Array(ik.get_chain_bones()), [j0, j2], "the chain follows the new hierarchy")
+
+
 func test_bones_cleared_at_run_time() -> void:
 	var rig := _rig(9)
 	var skel: Skeleton3D = rig["skeleton"]
@@ -417,3 +439,75 @@ func test_huge_target() -> void:
 		var dir := (cap["tip"] as Vector3 - root).normalized()
 		check_le(dir.angle_to(far.normalized()), 1e-3, "chain points at the target (rad)")
 		check_near((cap["tip"] as Vector3 - root).length(), Arm.chain_length(3), 1e-3, "fully extended (m)")
+
+
+# ------------------------------------------------------------------ bad inputs that do not stop the frame
+# (issue 16 item 10): each one message per spell naming the property and the fix, and a defined
+# result: the solve goes on without the part the input spoils.
+
+## A pole at NaN, inf or 1e30: ignored (the target is still reached), one error per spell.
+func test_pole_target_not_finite_or_far() -> void:
+	var rig := _rig(20)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	var pole := Marker3D.new()
+	pole.name = "Pole"
+	pole.position = Vector3(2.0, 1.0, -1.0)
+	rig["container"].add_child(pole)
+	ik.pole_target = NodePath("../../Pole")
+	Rig.add_to(case_root, rig)
+	await frames(2)
+	# One error per bad spell: three spells, three errors (awk ERE: no apostrophe escapes needed).
+	expect_error("pole_target.s global position is not finite or absurdly far.*Move pole_target", 3)
+	for bad in [Vector3(NAN, 0.0, 0.0), Vector3(0.0, INF, 0.0), Vector3(1e30, 1e30, 0.0)]:
+		pole.position = bad
+		await _check_reaches(skel, ik, goal, "pole at %s: the target still reached" % bad)
+		_check_finite(skel, "pole at %s" % bad)
+		pole.position = Vector3(2.0, 1.0, -1.0)  # the spell ends: the next bad pole is reported again
+		await frames(2)
+
+
+## use_target_rotation with a zero target basis: the rotation is skipped (not taken as identity),
+## the position still reached, one error per spell.
+func test_target_zero_basis_skips_rotation() -> void:
+	var rig := _rig(21)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	ik.use_target_transform = true
+	ik.use_target_rotation = true
+	ik.target_transform = Transform3D(Basis(Vector3.ZERO, Vector3.ZERO, Vector3.ZERO), goal)
+	# Two spells: the second starts after frames that did not ask for the rotation.
+	expect_error("target.s basis is degenerate.*use_target_rotation", 2)
+	Rig.add_to(case_root, rig)
+	await _check_reaches(skel, ik, goal, "zero target basis: the position")
+	await frames(3)
+	_check_finite(skel, "zero target basis")
+	check_eq(ik.get_last_orientation_error(), 0.0, "no orientation goal was pursued")
+	ik.use_target_rotation = false
+	await frames(2)
+	ik.use_target_rotation = true
+	await frames(2)
+
+
+## An orientation goal whose target has a zero basis: that goal is skipped, one error per spell.
+func test_orientation_goal_zero_basis_is_skipped() -> void:
+	var rig := _rig(22)
+	var skel: Skeleton3D = rig["skeleton"]
+	var ik: IKChain = rig["ik"]
+	var goal: Vector3 = (rig["target"] as Node3D).position
+	var flat := Node3D.new()
+	flat.name = "Flat"
+	flat.transform = Transform3D(Basis(Vector3.ZERO, Vector3.ZERO, Vector3.ZERO), Vector3(0.5, 1.0, -1.5))
+	rig["container"].add_child(flat)
+	var g := IKChainGoal.new()
+	g.bone_name = "j1"
+	g.kind = IKChainGoal.KIND_ORIENTATION
+	g.target = NodePath("../../Flat")
+	ik.goals = [g]
+	expect_error("orientation goal.*degenerate basis", 1)
+	Rig.add_to(case_root, rig)
+	await _check_reaches(skel, ik, goal, "the main goal with a skipped orientation goal")
+	await frames(3)
+	_check_finite(skel, "orientation goal with a zero basis")

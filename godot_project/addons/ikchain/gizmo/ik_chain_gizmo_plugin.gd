@@ -8,14 +8,17 @@ extends EditorNode3DGizmoPlugin
 ## there, kept per node, and _redraw() draws the latest ones.
 
 const Drawer := preload("res://addons/ikchain/ik_chain_drawer.gd")
+const Lines := preload("res://addons/ikchain/gizmo/ik_chain_gizmo_lines.gd")
 
-var _lines := {}  # IKChain instance id -> the drawer's Dictionary, global space
-var _watched := {}  # IKChain instance id -> the Skeleton3D whose skeleton_updated we listen to
+## The lines of the selected IKChains, rebuilt in their skeletons' updates (one connection per
+## skeleton, however many of its chains are selected).
+var _lines := Lines.new()
 
 
 func _init() -> void:
 	for c in Drawer.CATEGORIES:
 		create_material(c, Drawer.COLORS[c], false, true)
+	_lines.lines_changed.connect(func(ik: Node3D): ik.update_gizmos())
 	EditorInterface.get_selection().selection_changed.connect(_on_selection_changed)
 
 
@@ -24,8 +27,7 @@ func shutdown() -> void:
 	var selection := EditorInterface.get_selection()
 	if selection.selection_changed.is_connected(_on_selection_changed):
 		selection.selection_changed.disconnect(_on_selection_changed)
-	for id in _watched.keys():
-		_unwatch(id)
+	_lines.unwatch_all()
 
 
 func _get_gizmo_name() -> String:
@@ -41,9 +43,8 @@ func _redraw(gizmo: EditorNode3DGizmo) -> void:
 	var ik := gizmo.get_node_3d()
 	if ik == null or not ik.is_inside_tree() or not _is_selected(ik):
 		return
-	_watch(ik)
-	var id := ik.get_instance_id()
-	var lines: Dictionary = _lines[id] if _lines.has(id) else Drawer.build(ik)
+	_lines.watch(ik)
+	var lines: Dictionary = _lines.lines_of(ik)
 	var to_local := ik.global_transform.affine_inverse()
 	for c in Drawer.CATEGORIES:
 		var segments: PackedVector3Array = lines[c]
@@ -58,7 +59,7 @@ func _is_selected(node: Node) -> bool:
 func _on_selection_changed() -> void:
 	# Redraw IKChains that were or are selected: a deselected one clears its lines.
 	var ids := {}
-	for id in _watched:
+	for id in _lines.watched_ids():
 		ids[id] = true
 	for node in EditorInterface.get_selection().get_selected_nodes():
 		if node.is_class("IKChain"):
@@ -66,37 +67,9 @@ func _on_selection_changed() -> void:
 	for id in ids:
 		var ik := instance_from_id(id) as Node3D
 		if ik == null:
-			_unwatch(id)
+			_lines.unwatch(id)
 			continue
 		if not _is_selected(ik):
-			_unwatch(id)
+			_lines.unwatch(id)
 		ik.update_gizmos()
 
-
-func _watch(ik: Node3D) -> void:
-	var id := ik.get_instance_id()
-	var skel := ik.get_parent() as Skeleton3D
-	if _watched.get(id) == skel:
-		return
-	_unwatch(id)
-	if skel == null:
-		return
-	skel.skeleton_updated.connect(_on_skeleton_updated.bind(id))
-	_watched[id] = skel
-
-
-func _unwatch(id: int) -> void:
-	var skel = _watched.get(id)
-	_watched.erase(id)
-	_lines.erase(id)
-	if is_instance_valid(skel) and skel.skeleton_updated.is_connected(_on_skeleton_updated):
-		skel.skeleton_updated.disconnect(_on_skeleton_updated)
-
-
-func _on_skeleton_updated(id: int) -> void:
-	var ik := instance_from_id(id) as Node3D
-	if ik == null or not ik.is_inside_tree():
-		_unwatch(id)
-		return
-	_lines[id] = Drawer.build(ik)
-	ik.update_gizmos()

@@ -1,0 +1,589 @@
+// Damped least squares on a tree, with strict priority levels.
+//
+// One step. Rows are ordered by level (ws.goal_order); J holds every goal's weighted rows over the
+// DOFs that move any goal's effector (the union of their supports: the rest never enter the
+// matrices), each column scaled by 1 / sqrt(motion_cost), so the minimum-norm step is the one that
+// moves costly joints least. Level 1 gets the damped step y1 = J1^T (J1 J1^T + mu I)^-1 e1. Level
+// k then works in the null space of the rows A above it (recursive null-space projection,
+// Siciliano & Slotine 1991; Baerlocher & Boulic 2004):
+//   J~k = Jk (I - A^T G^-1 A),  G = A A^T (+ a tiny ridge),
+//   y  += J~k^T (J~k J~k^T + mu I)^-1 (ek - Jk y),
+// so it never disturbs a higher level to first order. Both products are formed from the Gram
+// matrix M = J J^T of all rows (its blocks are A A^T, Jk A^T and Jk Jk^T), so a level costs
+// O(rows^2 * dofs), never an n x n projector. Below every level, the posture task's step is
+// projected into the null space of every goal row the same way.
+//
+// Acceptance compares poses level by level (lexicographically): a trial is better when the first
+// level that differs - not met in both, and changed by more than rounding - is lower; then the
+// posture. Damping adapts as in the chain DLS (dls.cpp): down after an accepted step, up after a
+// rejected one. Joint limits are hard at every level: the active set of the chain's Jacobian
+// solvers (a DOF pushing out of a bound it rests on loses its column, a ball its outward
+// directions) and a projection of each trial onto the limits.
+#include <algorithm>
+#include <cmath>
+
+#include "core/kinematics.hpp"
+#include "core/so3.hpp"
+#include "core/solvers/stuck.hpp"
+#include "core/solvers/tree_solvers.hpp"
+
+namespace ikchain {
+namespace {
+
+// The ridge added to the Gram matrix of the rows above a level, relative to its largest diagonal
+// entry: enough for a Cholesky factor of a rank-deficient set of rows (a straight leg), far below
+// any direction a level really uses.
+constexpr double kProjectorRidge = 1e-10;
+// A level's cost counts as unchanged within this relative band (rounding of the cost, and the
+// second-order change a lower level's null-space step makes).
+constexpr double kSameCost = 1e-9;
+constexpr int kLimitPasses = 3;
+// While a lower level still makes progress, a higher one met within this many tolerances counts as
+// met: a step that serves the lower level drifts the higher ones by its square, and the next
+// step's Gauss-Newton part takes that back (quadratically). A strict phase (factor 1) polishes
+// the higher levels at the end.
+constexpr double kRelaxedTolerances = 100.0;
+// The chain solvers' stall and creep rules and escape sizes (stuck.hpp): one notion of "stuck".
+using stuck::kCreepGain;
+using stuck::kKickAmplitude;
+using stuck::kMaxEscapes;
+using stuck::kSecondUnpinFraction;
+using stuck::kStallIterations;
+
+struct Levels {
+  int count = 0;                                   // levels with goals
+  std::array<int, kMaxPriorityLevels> begin{}, end{};  // row ranges, in level order
+};
+
+double posture_cost(const Tree& tree, const TreeProblem& problem, const double* params) {
+  if (problem.posture.empty()) return 0.0;
+  double c = 0.0;
+  for (int d = 0; d < tree.dof_count(); ++d) {
+    const double s = problem.posture_stiffness.empty() ? 1.0 : problem.posture_stiffness[d];
+    const double e = params[d] - problem.posture[d];
+    c += 0.5 * s * e * e;
+  }
+  return c;
+}
+
+// Level costs at or below `met_cost` count as met (equal), whatever their value.
+using LevelCosts = std::array<double, kMaxPriorityLevels>;
+
+// +1 when `trial` is better than `current` level by level, -1 when worse, 0 when no level (nor the
+// posture) tells them apart. Level costs at or below `met_cost` count as met (equal).
+int compare(const TreeErrors& trial, double trial_posture, const TreeErrors& current, double current_posture,
+            const LevelCosts& met_cost) {
+  for (int l = 0; l < kMaxPriorityLevels; ++l) {
+    const double a = trial.level_cost[l], b = current.level_cost[l];
+    const bool trial_met = trial.level_met[l] || a <= met_cost[l];
+    const bool current_met = current.level_met[l] || b <= met_cost[l];
+    if (trial_met && current_met) continue;
+    if (!(a <= b * (1.0 + kSameCost))) return -1;  // worse (or NaN)
+    if (a < b * (1.0 - kSameCost)) return 1;
+  }
+  if (trial_posture < current_posture * (1.0 - kSameCost)) return 1;
+  return trial_posture > current_posture * (1.0 + kSameCost) ? -1 : 0;
+}
+
+// Better with levels met within `met_cost` counted as met; where that ties, better strictly (each
+// goal within its tolerance), so progress inside the band still counts.
+bool better(const TreeErrors& trial, double trial_posture, const TreeErrors& current, double current_posture,
+            const LevelCosts& met_cost) {
+  const int relaxed = compare(trial, trial_posture, current, current_posture, met_cost);
+  if (relaxed != 0) return relaxed > 0;
+  return compare(trial, trial_posture, current, current_posture, LevelCosts{}) > 0;
+}
+
+// The cost each level has when every one of its goals is `factor` times its tolerance off.
+LevelCosts met_costs(const TreeProblem& problem, const SolverOptions& o, double factor) {
+  LevelCosts c{};
+  for (int g = 0; g < problem.goals.size; ++g) {
+    const Goal& goal = problem.goals[g].goal;
+    const double t = factor * (goal.kind == GoalKind::kPosition ? o.position_tolerance : o.orientation_tolerance);
+    c[problem.goals[g].level - 1] += 0.5 * goal.weight * t * t;
+  }
+  return c;
+}
+
+// The largest relative gain of any level not met (or of the posture) from `before` to `after`.
+double progress(const TreeErrors& after, double after_posture, const TreeErrors& before, double before_posture) {
+  double gain = 0.0;
+  for (int l = 0; l < kMaxPriorityLevels; ++l)
+    if (!before.level_met[l] && before.level_cost[l] > 0.0)
+      gain = std::max(gain, (before.level_cost[l] - after.level_cost[l]) / before.level_cost[l]);
+  if (before_posture > 0.0) gain = std::max(gain, (before_posture - after_posture) / before_posture);
+  return gain;
+}
+
+class HierarchicalStep {
+ public:
+  HierarchicalStep(const Tree& tree, const TreeProblem& problem, TreeWorkspace& ws)
+      : tree_(tree), problem_(problem), ws_(ws) {
+    // Rows by level.
+    int k = 0;
+    for (int l = 1; l <= kMaxPriorityLevels; ++l) {
+      const int first = k;
+      for (int g = 0; g < problem.goals.size; ++g)
+        if (problem.goals[g].level == l) ws.goal_order[k++] = g;
+      if (k > first) {
+        levels_.begin[levels_.count] = 3 * first;
+        levels_.end[levels_.count] = 3 * k;
+        ++levels_.count;
+      }
+    }
+    rows_ = 3 * problem.goals.size;
+    // Active DOFs: those that move any goal's effector, in DOF order (a ball's three stay together).
+    std::fill(ws.dof_column.begin(), ws.dof_column.end(), -1);
+    for (int g = 0; g < problem.goals.size; ++g) {
+      const int e = problem.goals[g].goal.effector;
+      const int* support = tree.support_list(e);
+      for (int s = 0; s < tree.support_count(e); ++s) {
+        const int j = support[s];
+        for (int d = 0; d < tree.dof_count_of(j); ++d) ws.dof_column[tree.dof_offset(j) + d] = 0;
+        if (j == 0 && tree.floating_root())
+          for (int d = 0; d < 3; ++d) ws.dof_column[d] = 0;
+      }
+    }
+    cols_ = 0;
+    for (int d = 0; d < tree.dof_count(); ++d) {
+      if (ws.dof_column[d] < 0) continue;
+      ws.dof_column[d] = cols_;
+      ws.active_dofs[cols_] = d;
+      const double cost = ws.dof_joint[d] < 0 ? tree.translation_motion_cost() : tree.motion_cost(ws.dof_joint[d]);
+      ws.dof_scale[cols_] = 1.0 / std::sqrt(cost);
+      ++cols_;
+    }
+  }
+
+  int columns() const { return cols_; }
+
+  // J at the pose ws holds (FK and DOF axes), scaled columns, rows in level order.
+  void linearize() {
+    Eigen::MatrixXd& J = ws_.jacobian;
+    for (int k = 0; k < problem_.goals.size; ++k) {
+      const Goal& g = problem_.goals[ws_.goal_order[k]].goal;
+      const double sw = std::sqrt(g.weight);
+      const GoalLinearization lin = tree_linearize_goal(tree_, ws_, g);
+      for (int c = 0; c < cols_; ++c) {
+        const glm::dvec3 col = tree_jacobian_column(tree_, ws_, g, lin, ws_.active_dofs[c]);
+        const double s = sw * ws_.dof_scale[c];
+        J(3 * k, c) = s * col.x;
+        J(3 * k + 1, c) = s * col.y;
+        J(3 * k + 2, c) = s * col.z;
+      }
+    }
+  }
+
+  // The step (ws.step, every DOF) at damping mu from the residual rows in ws.residual, with the
+  // active set of the limits; false when a factorisation failed (raise mu).
+  // `served`: how many levels (in order) the step serves; the posture only when it is all of them.
+  bool compute(const double* params, double mu, double posture_gain, int served) {
+    served_ = served;
+    for (int pass = 0; pass <= kLimitPasses; ++pass) {
+      if (!hierarchical(params, ws_.residual, mu, served < levels_.count ? 0.0 : posture_gain)) return false;
+      if (pass == kLimitPasses || !block_limits(params)) break;
+    }
+    const double fraction = fraction_to_bounds(params);
+    if (fraction < 1.0) ws_.step *= fraction;
+    return true;
+  }
+
+  // A second-order correction (Nocedal & Wright, sec. 18.3) from a trial pose whose residual rows
+  // are `trial_residual`: the same step with the Jacobian of the pose it came from. A step that
+  // serves a lower level drifts the higher ones by its square (the null space is flat only to
+  // first order); this takes the drift back without a new linearisation.
+  bool correct(const double* trial_params, const Eigen::VectorXd& trial_residual, double mu) {
+    return hierarchical(trial_params, trial_residual, mu, 0.0);
+  }
+  int level_count() const { return levels_.count; }
+  // The level (0-based among those with goals) that the first unmet one of `errors` is, or the
+  // level count when all are met.
+  int first_unmet(const TreeErrors& errors) const {
+    for (int l = 0; l < levels_.count; ++l)
+      if (!errors.level_met[problem_.goals[ws_.goal_order[levels_.begin[l] / 3]].level - 1]) return l;
+    return levels_.count;
+  }
+
+ private:
+  bool hierarchical(const double* params, const Eigen::VectorXd& residual, double mu, double posture_gain) {
+    const auto J = ws_.jacobian.topLeftCorner(rows_, cols_);
+    auto M = ws_.row_square.topLeftCorner(rows_, rows_);
+    M.noalias() = J * J.transpose();
+    auto y = ws_.dof_vec_a.head(cols_);
+    y.setZero();
+    for (int l = 0; l < served_; ++l) {
+      const int b = levels_.begin[l], m = levels_.end[l] - b;
+      auto r = ws_.row_vec_a.segment(b, m);
+      r = residual.segment(b, m);
+      r.noalias() -= J.middleRows(b, m) * y;
+      auto K = ws_.row_factor.block(b, b, m, m);
+      auto Jt = ws_.projected.middleRows(b, m).leftCols(cols_);
+      if (b == 0) {
+        K = M.block(0, 0, m, m);
+        Jt = J.middleRows(0, m);
+      } else {
+        // C = G^-1 (A Jl^T), Jt = Jl - C^T A, K = Jl Jl^T - (Jl A^T) C.
+        if (!factor_above(M, b)) return false;
+        auto C = ws_.coupling.topLeftCorner(b, m);
+        C = M.block(0, b, b, m);
+        solve_above(b, C);
+        Jt = J.middleRows(b, m);
+        Jt.noalias() -= C.transpose() * J.topRows(b);
+        K = M.block(b, b, m, m);
+        K.noalias() -= M.block(b, 0, m, b) * C;
+      }
+      K.diagonal().array() += mu;
+      Eigen::Ref<Eigen::MatrixXd> K_ref(K);
+      Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(K_ref);  // in place: allocates nothing
+      if (llt.info() != Eigen::Success) return false;
+      llt.solveInPlace(r);
+      y.noalias() += Jt.transpose() * r;
+    }
+    if (!problem_.posture.empty() && posture_gain > 0.0) {
+      auto v = ws_.dof_vec_b.head(cols_);
+      for (int c = 0; c < cols_; ++c) {
+        const int d = ws_.active_dofs[c];
+        v[c] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]) / ws_.dof_scale[c];
+      }
+      if (rows_ > 0) {
+        if (!factor_above(M, rows_)) return false;
+        auto u = ws_.row_vec_b.head(rows_);
+        u.noalias() = J * v;
+        solve_above(rows_, u);
+        v.noalias() -= J.transpose() * u;
+      }
+      y += v;
+    }
+    ws_.step.setZero();
+    for (int c = 0; c < cols_; ++c) ws_.step[ws_.active_dofs[c]] = ws_.dof_scale[c] * y[c];
+    if (!problem_.posture.empty() && posture_gain > 0.0)
+      for (int d = 0; d < tree_.dof_count(); ++d)
+        if (!is_active(d)) ws_.step[d] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]);
+    return ws_.step.allFinite();
+  }
+
+  // Factors G = M[0:b, 0:b] + ridge (Cholesky, in place in ws.gram_factor's lower triangle).
+  template <class Gram>
+  bool factor_above(const Gram& M, int b) {
+    Eigen::Ref<Eigen::MatrixXd> F(ws_.gram_factor.topLeftCorner(b, b));
+    F = M.topLeftCorner(b, b);
+    const double ridge = kProjectorRidge * std::max(F.diagonal().maxCoeff(), 1e-300);
+    F.diagonal().array() += ridge;
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(F);
+    return llt.info() == Eigen::Success;
+  }
+  // X <- G^-1 X with the factor factor_above(M, b) left.
+  template <class Rhs>
+  void solve_above(int b, Rhs& X) {
+    const auto F = ws_.gram_factor.topLeftCorner(b, b);
+    F.triangularView<Eigen::Lower>().solveInPlace(X);
+    F.transpose().triangularView<Eigen::Upper>().solveInPlace(X);
+  }
+
+  // The largest fraction (<= 1) of the step that leaves every limited joint within its limits: a
+  // step the limits' projection cut short would leave the null spaces (the levels it was
+  // projected for would drift by first order); one cut to the first bound keeps its direction,
+  // and the joint that reached its bound joins the active set at the next step. Balls by bisection
+  // on their limits. Never below kMinFraction (the projection takes the rest).
+  double fraction_to_bounds(const double* params) const {
+    constexpr double kMinFraction = 0.05;
+    double fraction = 1.0;
+    for (int c = 0; c < cols_;) {
+      const int d = ws_.active_dofs[c];
+      const int j = ws_.dof_joint[d];
+      if (j < 0 || !tree_.has_limits(j)) {
+        ++c;
+        continue;
+      }
+      const JointLimits& l = tree_.limits(j);
+      const double* s = ws_.step.data() + d;
+      if (tree_.joint_type(j) != JointType::kBall) {
+        const double to = s[0] > 0.0 ? l.hinge_max - params[d] : l.hinge_min - params[d];
+        if (s[0] != 0.0 && std::abs(s[0]) > std::abs(to)) fraction = std::min(fraction, std::max(to / s[0], 0.0));
+        ++c;
+        continue;
+      }
+      double p[3] = {params[d] + s[0], params[d + 1] + s[1], params[d + 2] + s[2]};
+      // A ball resting on its boundary slides along it (the active set took the outward part): the
+      // projection takes back what the curved boundary adds, a second-order amount.
+      if (!joint_within_limits(JointType::kBall, l, p, 1e-9) && !ball_params_on_boundary(l, params + d)) {
+        double lo = 0.0, hi = 1.0;
+        for (int k = 0; k < 20; ++k) {
+          const double mid = 0.5 * (lo + hi);
+          for (int i = 0; i < 3; ++i) p[i] = params[d + i] + mid * s[i];
+          (joint_within_limits(JointType::kBall, l, p, 1e-9) ? lo : hi) = mid;
+        }
+        fraction = std::min(fraction, lo);
+      }
+      c += 3;
+    }
+    return std::max(fraction, kMinFraction);
+  }
+
+  // Marks the DOFs the step pushes out of a bound they rest on and removes them from J; true when
+  // anything new was blocked (the step is then computed again).
+  bool block_limits(const double* params) {
+    bool changed = false;
+    for (int c = 0; c < cols_;) {
+      const int d = ws_.active_dofs[c];
+      const int j = ws_.dof_joint[d];
+      if (j < 0 || !tree_.has_limits(j)) {
+        ++c;
+        continue;
+      }
+      if (tree_.joint_type(j) != JointType::kBall) {
+        if (one_dof_blocked(tree_.limits(j), params[d], ws_.step[d]) && ws_.jacobian.col(c).head(rows_).any()) {
+          ws_.jacobian.col(c).head(rows_).setZero();
+          changed = true;
+        }
+        ++c;
+        continue;
+      }
+      glm::dvec3 normals[2];
+      const int count = ball_params_blocked(tree_.limits(j), params + d, ws_.step.data() + d, normals);
+      for (int k = 0; k < count; ++k) remove_ball_direction(ws_.jacobian, rows_, c, normals[k]);
+      changed = changed || count > 0;
+      c += 3;
+    }
+    return changed;
+  }
+
+  double stiffness(int d) const { return problem_.posture_stiffness.empty() ? 1.0 : problem_.posture_stiffness[d]; }
+  bool is_active(int d) const { return ws_.dof_column[d] >= 0; }
+
+  const Tree& tree_;
+  const TreeProblem& problem_;
+  TreeWorkspace& ws_;
+  Levels levels_;
+  int rows_ = 0, cols_ = 0;
+  int served_ = 0;
+};
+
+// params + step, a ball's rotation vector kept at angle <= pi, each joint's turn capped at
+// max_step_angle (0 = none); then onto the limits.
+void make_trial(const Tree& tree, const SolverOptions& o, const double* params, const double* step, double* trial) {
+  const int n = tree.dof_count();
+  for (int d = 0; d < n; ++d) trial[d] = params[d] + step[d];
+  for (int j = 0; j < tree.joint_count(); ++j) {
+    const int d = tree.dof_offset(j);
+    if (tree.joint_type(j) == JointType::kBall) {
+      glm::dvec3 s(step[d], step[d + 1], step[d + 2]);
+      const double len = glm::length(s);
+      if (o.max_step_angle > 0.0 && len > o.max_step_angle) s *= o.max_step_angle / len;
+      const glm::dvec3 r = so3::wrap_rotation_vector(glm::dvec3(params[d], params[d + 1], params[d + 2]) + s);
+      trial[d] = r.x;
+      trial[d + 1] = r.y;
+      trial[d + 2] = r.z;
+    } else if (tree.joint_type(j) == JointType::kHinge && o.max_step_angle > 0.0) {
+      trial[d] = params[d] + std::clamp(step[d], -o.max_step_angle, o.max_step_angle);
+    }
+  }
+  project_tree_to_limits(tree, trial);
+}
+
+// True when an active joint rests on a bound of its limits (a hinge or slide on hinge_min/max, a
+// ball on its cone or a twist bound).
+bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const double* params) {
+  for (int c = 0; c < columns;) {
+    const int d = ws.active_dofs[c];
+    const int j = ws.dof_joint[d];
+    if (j < 0 || !tree.has_limits(j)) {
+      ++c;
+      continue;
+    }
+    if (tree.joint_type(j) == JointType::kBall) {
+      if (ball_params_on_boundary(tree.limits(j), params + d)) return true;
+      c += 3;
+      continue;
+    }
+    if (one_dof_blocked(tree.limits(j), params[d], -1.0) || one_dof_blocked(tree.limits(j), params[d], 1.0)) return true;
+    ++c;
+  }
+  return false;
+}
+
+// Stuck with goals unmet (the stall rule, no acceptable step at any damping, or a creep with a
+// joint on a bound). Escape `number` (1..kMaxEscapes), as the chain solvers' (stuck.hpp) in
+// simpler form: odd escapes move every active joint that rests on a bound off it (a hinge half way
+// into its range, then three quarters; a ball half way back from its cone) - a straight knee on its
+// limit is a minimum no first-order step leaves, and neither is "down" for the hips above it; even
+// escapes (and odd ones with nothing pinned) kick every active DOF by the fixed golden-angle
+// pattern. False when nothing moved.
+bool escape(const Tree& tree, const TreeWorkspace& ws, int columns, int number, double* params) {
+  bool moved = false;
+  if (number % 2 == 1) {
+    for (int c = 0; c < columns;) {
+      const int d = ws.active_dofs[c];
+      const int j = ws.dof_joint[d];
+      if (j < 0 || !tree.has_limits(j)) {
+        ++c;
+        continue;
+      }
+      const JointLimits& l = tree.limits(j);
+      if (tree.joint_type(j) == JointType::kBall) {
+        if (ball_params_on_boundary(l, params + d)) {
+          for (int k = 0; k < 3; ++k) params[d + k] *= 0.5;
+          moved = true;
+        }
+        c += 3;
+        continue;
+      }
+      const double toward_other_end = number >= 3 ? kSecondUnpinFraction : 0.5;
+      if (one_dof_blocked(l, params[d], -1.0)) {
+        params[d] = l.hinge_min + toward_other_end * (l.hinge_max - l.hinge_min);
+        moved = true;
+      } else if (one_dof_blocked(l, params[d], 1.0)) {
+        params[d] = l.hinge_max - toward_other_end * (l.hinge_max - l.hinge_min);
+        moved = true;
+      }
+      ++c;
+    }
+  }
+  if (!moved) {
+    for (int c = 0; c < columns; ++c) {
+      const int d = ws.active_dofs[c];
+      if (ws.dof_joint[d] < 0) continue;  // the root's translation stays
+      params[d] += kKickAmplitude * std::sin(2.399963 * (c + 1) + (number - 1));
+    }
+    moved = columns > 0;
+  }
+  project_tree_to_limits(tree, params);
+  return moved;
+}
+
+}  // namespace
+
+TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& o,
+                                TreeWorkspace& ws, double* params) {
+  TreeSolverStatus status;
+  const int n = tree.dof_count();
+  HierarchicalStep model(tree, problem, ws);
+  double* residual = ws.residual.data();
+
+  tree_forward_kinematics(tree, params, ws);
+  TreeErrors current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), residual, nullptr);
+  double current_posture = posture_cost(tree, problem, params);
+  tree_dof_axes(tree, params, ws);
+  model.linearize();
+
+  const double initial_mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
+  double mu = initial_mu;
+  double nu = 2.0;
+  double posture_gain = 1.0;
+  int slow_steps = 0, creep_steps = 0;
+  // The best pose seen (lexicographically): escapes may leave it, the result returns to it.
+  std::copy(params, params + n, ws.params_best.data());
+  TreeErrors best = current;
+  double best_posture = current_posture;
+  const LevelCosts relaxed = met_costs(problem, o, kRelaxedTolerances);
+  const LevelCosts strict{};  // met is each goal within its tolerance (TreeErrors::level_met)
+  // One level has nothing to relax for.
+  const LevelCosts* met_cost = model.level_count() > 1 ? &relaxed : &strict;
+  // Stuck in the relaxed phase: go on strictly from here (true), or it was the strict one (false).
+  // Stuck: escape and go on from the new pose (true), or no escape left (false).
+  auto escape_stuck = [&]() {
+    if (status.escapes >= kMaxEscapes) return false;
+    ++status.escapes;
+    met_cost = model.level_count() > 1 ? &relaxed : &strict;
+    if (!escape(tree, ws, model.columns(), status.escapes, params)) return false;
+    tree_forward_kinematics(tree, params, ws);
+    current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), nullptr);
+    residual = ws.residual.data();
+    current_posture = posture_cost(tree, problem, params);
+    tree_dof_axes(tree, params, ws);
+    model.linearize();
+    mu = initial_mu;
+    nu = 2.0;
+    posture_gain = 1.0;
+    slow_steps = creep_steps = 0;
+    return true;
+  };
+  auto tighten = [&]() {
+    if (met_cost == &strict) return false;
+    met_cost = &strict;
+    mu = initial_mu;
+    nu = 2.0;
+    slow_steps = creep_steps = 0;
+    return true;
+  };
+  status.reason = TerminationReason::kMaxIterations;
+  for (int it = 1; it <= o.max_iterations; ++it) {
+    if (ws.deadline.spent()) break;  // the time budget: kMaxIterations
+    status.iterations = it;
+    // Relaxed: every level at once. Strict: lexicographic Gauss-Newton, the levels down to the first
+    // one not met (a lower level's step would only drift it).
+    const int served = met_cost == &strict ? std::min(model.first_unmet(current) + 1, model.level_count())
+                                           : model.level_count();
+    bool trial_ok = model.compute(params, mu, posture_gain, served);
+    TreeErrors trial;
+    double trial_posture = 0.0;
+    if (trial_ok) {
+      make_trial(tree, o, params, ws.step.data(), ws.params_trial.data());
+      tree_forward_kinematics(tree, ws.params_trial.data(), ws);
+      trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
+      trial_posture = posture_cost(tree, problem, ws.params_trial.data());
+      trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
+      if (!trial_ok && model.level_count() > 1 && model.correct(ws.params_trial.data(), ws.residual_trial, mu)) {
+        // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
+        ws.dof_vec_b = ws.params_trial;
+        make_trial(tree, o, ws.dof_vec_b.data(), ws.step.data(), ws.params_trial.data());
+        tree_forward_kinematics(tree, ws.params_trial.data(), ws);
+        trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
+        trial_posture = posture_cost(tree, problem, ws.params_trial.data());
+        trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
+      }
+    }
+    if (trial_ok) {
+      const double gain = progress(trial, trial_posture, current, current_posture);
+      std::copy(ws.params_trial.data(), ws.params_trial.data() + n, params);
+      std::swap(ws.residual, ws.residual_trial);
+      residual = ws.residual.data();
+      current = trial;
+      current_posture = trial_posture;
+      if (better(current, current_posture, best, best_posture, strict)) {
+        std::copy(params, params + n, ws.params_best.data());
+        best = current;
+        best_posture = current_posture;
+      }
+      mu = std::max(mu / 3.0, o.dls_min_damping);
+      nu = 2.0;
+      const bool posture_settled = problem.posture.empty() || gain < 1e-3;
+      if (current.all_met() && posture_settled) {
+        status.reason = TerminationReason::kConverged;
+        break;
+      }
+      slow_steps = gain < o.stall_tolerance ? slow_steps + 1 : 0;
+      creep_steps = gain < kCreepGain ? creep_steps + 1 : 0;
+      const bool goals_left = !current.all_met();
+      if (slow_steps >= kStallIterations) {
+        if (goals_left && (tighten() || escape_stuck())) continue;
+        status.reason = goals_left ? TerminationReason::kStalled : TerminationReason::kConverged;
+        break;
+      }
+      if (goals_left && creep_steps >= kStallIterations &&
+          (tighten() || (any_pinned(tree, ws, model.columns(), params) && escape_stuck())))
+        continue;
+      tree_dof_axes(tree, params, ws);  // FK of params is what ws holds (the trial's)
+      model.linearize();
+    } else {
+      if (current.all_met()) {  // only the posture was left: it goes as far as the goals allow
+        status.reason = TerminationReason::kConverged;
+        break;
+      }
+      if (mu >= o.dls_max_damping) {
+        if (tighten() || escape_stuck()) continue;
+        status.reason = TerminationReason::kStalled;
+        break;
+      }
+      mu = std::min(mu * nu, o.dls_max_damping);
+      nu *= 2.0;
+      posture_gain *= 0.5;
+      // ws holds the trial's FK: the next step needs the accepted pose's (its J is kept).
+      tree_forward_kinematics(tree, params, ws);
+    }
+  }
+  if (better(best, best_posture, current, current_posture, strict)) std::copy(ws.params_best.data(), ws.params_best.data() + n, params);
+  return status;
+}
+
+}  // namespace ikchain

@@ -1,0 +1,49 @@
+// The tree solvers (internal): called by solve_tree() (tree_solve.cpp), which has validated every
+// input, made the start pose feasible and sized the workspace; each solver allocates nothing,
+// throws nothing, keeps params within the limits and leaves them at the best pose it reached.
+#pragma once
+#include "core/kinematics.hpp"
+#include "core/result.hpp"
+#include "core/tree_solve.hpp"
+
+namespace ikchain {
+
+// The errors of one pose, per level and in total.
+struct TreeErrors {
+  std::array<double, kMaxPriorityLevels> level_cost{};  // 0.5 sum_g w_g |e_g|^2 of each level
+  std::array<bool, kMaxPriorityLevels> level_met{};     // every goal of the level within tolerance
+  double cost = 0.0;             // all levels
+  double max_position = 0.0;     // worst position goal (m)
+  double max_orientation = 0.0;  // worst orientation / aim goal (rad)
+  bool all_met() const {
+    for (bool m : level_met)
+      if (!m) return false;
+    return true;
+  }
+};
+
+// Measures every goal at the pose ws holds (after tree_forward_kinematics); when `residual` is
+// given, also writes its weighted rows (3 per goal, in the order `goal_order` lists the goals).
+TreeErrors tree_measure(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                        const TreeWorkspace& ws, const int* goal_order, double* residual, double* goal_error);
+
+// Base-frame axis of every DOF (ws.dof_axes), after tree_forward_kinematics.
+void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws);
+
+// What goal's Jacobian columns need of the pose ws holds, and the column of DOF `dof` (unweighted:
+// the change of the goal's "current" side per unit of the DOF; zero where the DOF does not move
+// the goal's effector). Needs tree_forward_kinematics and tree_dof_axes.
+GoalLinearization tree_linearize_goal(const Tree& tree, const TreeWorkspace& ws, const Goal& goal);
+glm::dvec3 tree_jacobian_column(const Tree& tree, const TreeWorkspace& ws, const Goal& goal,
+                                const GoalLinearization& lin, int dof);
+
+struct TreeSolverStatus {
+  TerminationReason reason = TerminationReason::kStalled;
+  int iterations = 0;
+  int escapes = 0;  // stuck -> escape moves made (at most stuck::kMaxEscapes)
+};
+
+TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                                TreeWorkspace& ws, double* params);
+
+}  // namespace ikchain

@@ -1,0 +1,182 @@
+#include "core/tree.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/so3.hpp"
+
+namespace ikchain {
+
+namespace {
+
+TreeBuildError joint_error(int joint, const char* field, const Message& message) {
+  TreeBuildError e;
+  e.joint = joint;
+  e.field = field;
+  e.message = message;
+  return e;
+}
+
+TreeBuildError effector_error(int effector, const char* field, const Message& message) {
+  TreeBuildError e;
+  e.effector = effector;
+  e.field = field;
+  e.message = message;
+  return e;
+}
+
+bool bounded(const glm::dvec3& v) {
+  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
+}
+
+// The longest a joint's slide can add to the distance to its children (0 for turning joints).
+double longest_slide(JointType type, const JointLimits& l) {
+  return type == JointType::kPrismatic ? std::max(std::abs(l.hinge_min), std::abs(l.hinge_max)) : 0.0;
+}
+
+}  // namespace
+
+int TreeBuilder::add_joint(const TreeJointDesc& joint) {
+  joints_.push_back(joint);
+  return static_cast<int>(joints_.size()) - 1;
+}
+
+int TreeBuilder::add_effector(const TreeEffectorDesc& effector) {
+  effectors_.push_back(effector);
+  return static_cast<int>(effectors_.size()) - 1;
+}
+
+TreeBuilder& TreeBuilder::set_floating_root(bool enabled, double translation_motion_cost) {
+  floating_root_ = enabled;
+  translation_motion_cost_ = translation_motion_cost;
+  return *this;
+}
+
+void TreeBuilder::clear() {
+  joints_.clear();
+  effectors_.clear();
+  floating_root_ = false;
+  translation_motion_cost_ = 1.0;
+}
+
+TreeBuildError TreeBuilder::build(Tree& out) const {
+  out = Tree();
+  const int n = static_cast<int>(joints_.size());
+  if (n == 0) return joint_error(-1, "joints", Message::format("tree has 0 joints: add at least one joint"));
+  Tree t;
+  t.joints_.resize(n);
+  int dofs = 0;
+  if (floating_root_) {
+    if (joints_[0].type != JointType::kBall || joints_[0].parent != -1)
+      return joint_error(0, "type", Message::format("joint 0: a floating root must be a ball joint with parent -1"));
+    if (!(translation_motion_cost_ > 0.0 && translation_motion_cost_ <= kMaxWeight))
+      return joint_error(0, "translation_motion_cost",
+                         Message::format("floating root: translation_motion_cost must be in (0, %g], got %g",
+                                         kMaxWeight, translation_motion_cost_));
+    dofs = 3;
+  }
+  for (int i = 0; i < n; ++i) {
+    const TreeJointDesc& d = joints_[i];
+    if (d.parent < -1 || d.parent >= i)
+      return joint_error(i, "parent",
+                         Message::format("joint %d: parent (%d) must be -1 or an earlier joint (< %d): parents "
+                                         "precede their children", i, d.parent, i));
+    JointDesc as_joint;
+    as_joint.type = d.type;
+    as_joint.offset_translation = d.offset_in_parent;
+    as_joint.rest_rotation = d.rest_rotation;
+    as_joint.hinge_axis = d.axis;
+    as_joint.limits = d.limits;
+    JointDesc normal;
+    const BuildError error = normalize_joint(i, as_joint, normal, "offset_in_parent", "axis");
+    if (!error.ok()) return joint_error(i, error.field, error.message);
+    if (!(d.motion_cost > 0.0 && d.motion_cost <= kMaxWeight))
+      return joint_error(i, "motion_cost",
+                         Message::format("joint %d: motion_cost must be in (0, %g], got %g", i, kMaxWeight,
+                                         d.motion_cost));
+    Tree::JointRecord& r = t.joints_[i];
+    r.parent = d.parent;
+    r.type = normal.type;
+    r.offset_in_parent = normal.offset_translation;
+    r.rest_rotation = normal.rest_rotation;
+    r.axis = normal.hinge_axis;
+    r.limits = normal.limits;
+    r.motion_cost = d.motion_cost;
+    r.has_limits = d.type == JointType::kBall ? (r.limits.has_cone_limit || r.limits.has_twist_limit)
+                                              : r.limits.has_hinge_limit;
+    r.dof_offset = dofs;
+    dofs += d.type == JointType::kBall ? 3 : 1;
+  }
+  t.dof_count_ = dofs;
+  t.floating_root_ = floating_root_;
+  t.translation_motion_cost_ = translation_motion_cost_;
+
+  const int m = static_cast<int>(effectors_.size());
+  t.effectors_.resize(m);
+  t.support_.assign(static_cast<size_t>(m) * n, 0);
+  t.support_begin_.assign(m + 1, 0);
+  t.reach_from_root_.assign(m, 0.0);
+  for (int e = 0; e < m; ++e) {
+    const TreeEffectorDesc& d = effectors_[e];
+    if (d.joint < 0 || d.joint >= n)
+      return effector_error(e, "joint",
+                            Message::format("effector %d: joint (%d) must be in [0, %d)", e, d.joint, n));
+    if (!bounded(d.offset))
+      return effector_error(e, "offset",
+                            Message::format("effector %d: offset (%g, %g, %g) must be finite, each component "
+                                            "within +-%g m", e, d.offset.x, d.offset.y, d.offset.z, kMaxMagnitude));
+    const double len = so3::scaled_length(d.rotation);
+    if (!std::isfinite(len) || len < 1e-9)
+      return effector_error(e, "rotation",
+                            Message::format("effector %d: rotation must be a finite non-zero quaternion", e));
+    TreeEffectorDesc& stored = t.effectors_[e];
+    stored = d;
+    stored.rotation = glm::normalize(d.rotation / len);
+    // Supports: the joint and its ancestors, root first; the reach: the bones on that path.
+    t.support_begin_[e] = static_cast<int>(t.support_lists_.size());
+    double reach = glm::length(d.offset) + longest_slide(t.joints_[d.joint].type, t.joints_[d.joint].limits);
+    for (int j = d.joint; j >= 0; j = t.joints_[j].parent) {
+      t.support_[static_cast<size_t>(e) * n + j] = 1;
+      t.support_lists_.push_back(j);
+      const int p = t.joints_[j].parent;
+      if (p >= 0) reach += glm::length(t.joints_[j].offset_in_parent) + longest_slide(t.joints_[p].type, t.joints_[p].limits);
+    }
+    std::reverse(t.support_lists_.begin() + t.support_begin_[e], t.support_lists_.end());
+    t.support_begin_[e + 1] = static_cast<int>(t.support_lists_.size());
+    t.reach_from_root_[e] = reach;
+  }
+  double total = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (t.joints_[i].parent >= 0) total += glm::length(t.joints_[i].offset_in_parent);
+    total += longest_slide(t.joints_[i].type, t.joints_[i].limits);
+  }
+  for (const TreeEffectorDesc& e : t.effectors_) total += glm::length(e.offset);
+  if (!(total > 1e-9))
+    return joint_error(-1, "offset_in_parent", Message::format("zero-length tree: every bone has length 0"));
+  t.total_length_ = total;
+  out = std::move(t);
+  return TreeBuildError();
+}
+
+TreeBuildError tree_from_chain(const Chain& chain, Tree& out) {
+  TreeBuilder b;
+  const int n = chain.joint_count();
+  for (int i = 0; i < n; ++i) {
+    TreeJointDesc d;
+    d.parent = i - 1;
+    d.type = chain.joint_type(i);
+    d.offset_in_parent = chain.offset_translation(i);
+    d.rest_rotation = chain.rest_rotation(i);
+    d.axis = chain.hinge_axis(i);
+    d.limits = chain.limits(i);
+    b.add_joint(d);
+  }
+  // Chain effector k < n is o_k = o_{k-1} + Q_{k-1} offset_k with the orientation Q_{k-1}: joint
+  // k - 1's frame carried to offset_k. The tip: the last joint's frame at tip_offset, turned by
+  // tip_rotation.
+  for (int k = 1; k < n; ++k) b.add_effector({k - 1, chain.offset_translation(k), glm::dquat(1.0, 0.0, 0.0, 0.0)});
+  b.add_effector({n - 1, chain.tip_offset(), chain.tip_rotation()});
+  return b.build(out);
+}
+
+}  // namespace ikchain

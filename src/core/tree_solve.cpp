@@ -1,0 +1,320 @@
+#include "core/tree_solve.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/kinematics.hpp"
+#include "core/so3.hpp"
+#include "core/solve.hpp"
+#include "core/solvers/tree_solvers.hpp"
+
+namespace ikchain {
+
+void TreeWorkspace::reset(const Tree& tree, int goals) {
+  joints = tree.joint_count();
+  dofs = tree.dof_count();
+  max_goals = std::max(goals, 1);
+  const int rows = 3 * max_goals;
+  joint_origins.assign(joints, glm::dvec3(0.0));
+  joint_orientations.assign(joints, glm::dquat(1.0, 0.0, 0.0, 0.0));
+  joint_pre_rotations.assign(joints, glm::dquat(1.0, 0.0, 0.0, 0.0));
+  dof_axes.assign(dofs, glm::dvec3(0.0));
+  jacobian.setZero(rows, dofs);
+  projected.setZero(rows, dofs);
+  row_square.setZero(rows, rows);
+  row_factor.setZero(rows, rows);
+  gram_factor.setZero(rows, rows);
+  coupling.setZero(rows, rows);
+  residual.setZero(rows);
+  residual_trial.setZero(rows);
+  row_vec_a.setZero(rows);
+  row_vec_b.setZero(rows);
+  step.setZero(dofs);
+  dof_vec_a.setZero(dofs);
+  dof_vec_b.setZero(dofs);
+  dof_scale.setZero(dofs);
+  params_trial.setZero(dofs);
+  params_best.setZero(dofs);
+  params_backup.setZero(dofs);
+  goal_order.assign(max_goals, 0);
+  active_dofs.assign(dofs, 0);
+  dof_column.assign(dofs, -1);
+  dof_joint.assign(dofs, -1);
+  for (int j = 0; j < joints; ++j)
+    for (int d = 0; d < tree.dof_count_of(j); ++d) dof_joint[tree.dof_offset(j) + d] = j;
+}
+
+bool TreeWorkspace::fits(const Tree& tree, int goal_count) const {
+  return joints == tree.joint_count() && dofs == tree.dof_count() && goal_count <= max_goals;
+}
+
+void tree_forward_kinematics(const Tree& tree, const double* params, TreeWorkspace& ws) {
+  const int n = tree.joint_count();
+  for (int i = 0; i < n; ++i) {
+    const int p = tree.parent(i);
+    const glm::dquat parent_q = p < 0 ? glm::dquat(1.0, 0.0, 0.0, 0.0) : ws.joint_orientations[p];
+    glm::dvec3 origin = p < 0 ? tree.offset_in_parent(i) : ws.joint_origins[p] + parent_q * tree.offset_in_parent(i);
+    if (i == 0 && tree.floating_root()) origin += glm::dvec3(params[0], params[1], params[2]);
+    const glm::dquat pre = parent_q * tree.rest_rotation(i);
+    const double* q = params + tree.dof_offset(i);
+    glm::dquat orientation = pre;
+    switch (tree.joint_type(i)) {
+      case JointType::kBall: orientation = pre * so3::exp(glm::dvec3(q[0], q[1], q[2])); break;
+      case JointType::kHinge: orientation = pre * glm::angleAxis(q[0], tree.axis(i)); break;
+      // The slide shifts this joint's frame, so its children and effectors (tree.hpp).
+      case JointType::kPrismatic: origin += pre * (tree.axis(i) * q[0]); break;
+    }
+    ws.joint_origins[i] = origin;
+    ws.joint_pre_rotations[i] = pre;
+    ws.joint_orientations[i] = orientation;
+  }
+}
+
+glm::dvec3 tree_effector_position(const Tree& tree, const TreeWorkspace& ws, int effector) {
+  const TreeEffectorDesc& e = tree.effector(effector);
+  return ws.joint_origins[e.joint] + ws.joint_orientations[e.joint] * e.offset;
+}
+
+glm::dquat tree_effector_orientation(const Tree& tree, const TreeWorkspace& ws, int effector) {
+  const TreeEffectorDesc& e = tree.effector(effector);
+  return ws.joint_orientations[e.joint] * e.rotation;
+}
+
+namespace {
+
+double on_point_radius(const Tree& tree, const Goal& g) {
+  return g.kind == GoalKind::kAimAt ? kAimAtOnPoint * (tree.total_length() + glm::length(g.target_position)) : 0.0;
+}
+
+}  // namespace
+
+glm::dvec3 tree_goal_error(const Tree& tree, const TreeWorkspace& ws, const Goal& g) {
+  return goal_error_at(g, tree_effector_position(tree, ws, g.effector), tree_effector_orientation(tree, ws, g.effector),
+                       on_point_radius(tree, g));
+}
+
+void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws) {
+  if (tree.floating_root()) {
+    ws.dof_axes[0] = glm::dvec3(1.0, 0.0, 0.0);
+    ws.dof_axes[1] = glm::dvec3(0.0, 1.0, 0.0);
+    ws.dof_axes[2] = glm::dvec3(0.0, 0.0, 1.0);
+  }
+  for (int i = 0; i < tree.joint_count(); ++i) {
+    const int o = tree.dof_offset(i);
+    const glm::dquat& pre = ws.joint_pre_rotations[i];
+    if (tree.joint_type(i) != JointType::kBall) {
+      ws.dof_axes[o] = pre * tree.axis(i);
+    } else {
+      const glm::dmat3 jl = so3::left_jacobian(glm::dvec3(params[o], params[o + 1], params[o + 2]));
+      for (int k = 0; k < 3; ++k) ws.dof_axes[o + k] = pre * jl[k];
+    }
+  }
+}
+
+GoalLinearization tree_linearize_goal(const Tree& tree, const TreeWorkspace& ws, const Goal& g) {
+  GoalLinearization lin;
+  lin.point = tree_effector_position(tree, ws, g.effector);
+  if (g.kind == GoalKind::kAim || g.kind == GoalKind::kAimAt)
+    lin.aim_axis = glm::normalize(tree_effector_orientation(tree, ws, g.effector) * g.aim_axis);
+  if (g.kind == GoalKind::kAimAt) {
+    const glm::dvec3 d = g.target_position - lin.point;
+    lin.distance = glm::length(d);
+    lin.aim_at_defined = lin.distance > on_point_radius(tree, g);
+    if (lin.aim_at_defined) lin.direction = d / lin.distance;
+  }
+  return lin;
+}
+
+glm::dvec3 tree_jacobian_column(const Tree& tree, const TreeWorkspace& ws, const Goal& g, const GoalLinearization& lin,
+                                int dof) {
+  const bool root_translation = tree.floating_root() && dof < 3;
+  const int j = root_translation ? 0 : ws.dof_joint[dof];
+  if (!tree.supports(g.effector, j)) return glm::dvec3(0.0);
+  if (root_translation || tree.joint_type(j) == JointType::kPrismatic)
+    return translation_column(g.kind, ws.dof_axes[dof], lin);
+  return rotation_column(g.kind, ws.dof_axes[dof], lin.point - ws.joint_origins[j], lin);
+}
+
+TreeErrors tree_measure(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                        const TreeWorkspace& ws, const int* goal_order, double* residual, double* goal_error) {
+  TreeErrors out;
+  out.level_met.fill(true);
+  for (int k = 0; k < problem.goals.size; ++k) {
+    const int gi = goal_order ? goal_order[k] : k;
+    const TreeGoal& tg = problem.goals[gi];
+    const glm::dvec3 e = tree_goal_error(tree, ws, tg.goal);
+    const double len2 = glm::dot(e, e);
+    const double len = std::sqrt(len2);
+    const bool position = tg.goal.kind == GoalKind::kPosition;
+    double& worst = position ? out.max_position : out.max_orientation;
+    if (len > worst || std::isnan(len)) worst = len;  // a NaN must never read as met
+    const double tolerance = position ? options.position_tolerance : options.orientation_tolerance;
+    if (!(len <= tolerance)) out.level_met[tg.level - 1] = false;
+    out.level_cost[tg.level - 1] += 0.5 * tg.goal.weight * len2;
+    if (residual) {
+      const double sw = std::sqrt(tg.goal.weight);
+      residual[3 * k] = sw * e.x;
+      residual[3 * k + 1] = sw * e.y;
+      residual[3 * k + 2] = sw * e.z;
+    }
+    if (goal_error) goal_error[gi] = len;
+  }
+  for (double c : out.level_cost) out.cost += c;
+  return out;
+}
+
+void project_tree_to_limits(const Tree& tree, double* params) {
+  for (int i = 0; i < tree.joint_count(); ++i)
+    if (tree.has_limits(i)) project_joint_params(tree.joint_type(i), tree.limits(i), params + tree.dof_offset(i));
+}
+
+bool within_tree_limits(const Tree& tree, const double* params, double slack) {
+  for (int i = 0; i < tree.joint_count(); ++i)
+    if (!joint_within_limits(tree.joint_type(i), tree.limits(i), params + tree.dof_offset(i), slack)) return false;
+  return true;
+}
+
+namespace {
+
+bool bounded3(const glm::dvec3& v) {
+  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
+}
+
+}  // namespace
+
+Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProblem& problem,
+                             const SolverOptions& options, const TreeWorkspace& ws,
+                             const Eigen::Ref<const Eigen::VectorXd>& params) {
+  if (!tree.valid()) return Message::format("tree is not built (TreeBuilder::build failed or was not called)");
+  const int solver = static_cast<int>(kind);
+  if (solver < 0 || solver >= kSolverKindCount) return Message::format("unknown solver kind %d", solver);
+  if (!solver_info(kind).trees)
+    return Message::format("solver %s does not solve trees; use %s", to_string(kind), to_string(SolverKind::kDLS));
+  Message m = options.validate();
+  if (!m.empty()) return m;
+  if (options.max_restarts > 0)
+    return Message::format("max_restarts (%d): tree solves take no restarts yet; set it to 0", options.max_restarts);
+  if (options.use_pole)
+    return Message::format("use_pole: tree solves take no pole; aim a goal (kAimAt) at the pole instead");
+  if (problem.goals.size > kMaxTreeGoals)
+    return Message::format("%d goals: a tree solve takes at most %d", problem.goals.size, kMaxTreeGoals);
+  if (params.size() != tree.dof_count())
+    return Message::format("params has %d entries, the tree has %d DOFs", static_cast<int>(params.size()),
+                           tree.dof_count());
+  if (!ws.fits(tree, problem.goals.size))
+    return Message::format("workspace does not fit this tree and %d goals: call TreeWorkspace::reset(tree, %d)",
+                           problem.goals.size, problem.goals.size);
+  for (int i = 0; i < params.size(); ++i)
+    if (!(std::abs(params[i]) <= kMaxMagnitude))
+      return Message::format("params[%d] (%g) must be finite, within +-%g", i, params[i], kMaxMagnitude);
+  for (int i = 0; i < problem.goals.size; ++i) {
+    const TreeGoal& tg = problem.goals[i];
+    const Goal& g = tg.goal;
+    if (tg.level < 1 || tg.level > kMaxPriorityLevels)
+      return Message::format("goal %d: level (%d) must be in [1, %d] (1 = highest priority)", i, tg.level,
+                             kMaxPriorityLevels);
+    if (g.effector < 0 || g.effector >= tree.effector_count())
+      return Message::format("goal %d: effector (%d) must be in [0, %d)", i, g.effector, tree.effector_count());
+    if (!(g.weight > 0.0 && g.weight <= kMaxWeight))
+      return Message::format("goal %d: weight must be in (0, %g], got %g", i, kMaxWeight, g.weight);
+    const int k = static_cast<int>(g.kind);
+    if (k < 0 || k > static_cast<int>(GoalKind::kAimAt)) return Message::format("goal %d: unknown kind %d", i, k);
+    if (!bounded3(g.target_position))
+      return Message::format("goal %d: target_position must be finite, within +-%g m", i, kMaxMagnitude);
+    if (g.kind == GoalKind::kOrientation) {
+      const double len = so3::scaled_length(g.target_orientation);
+      if (!(len > 1e-9) || !std::isfinite(len))
+        return Message::format("goal %d: target_orientation must be a finite non-zero quaternion", i);
+    }
+    if (g.kind == GoalKind::kAim || g.kind == GoalKind::kAimAt) {
+      const double len = so3::scaled_length(g.aim_axis);
+      if (!(len > 1e-9) || !std::isfinite(len))
+        return Message::format("goal %d: aim_axis must be a finite non-zero vector", i);
+    }
+    if (g.kind == GoalKind::kAim) {
+      const double len = so3::scaled_length(g.aim_direction);
+      if (!(len > 1e-9) || !std::isfinite(len))
+        return Message::format("goal %d: aim_direction must be a finite non-zero vector", i);
+    }
+  }
+  const int n = tree.dof_count();
+  if (!problem.posture.empty() && problem.posture.size != n)
+    return Message::format("posture has %d entries, the tree has %d DOFs (or leave it empty)", problem.posture.size, n);
+  if (!problem.posture_stiffness.empty()) {
+    if (problem.posture.empty())
+      return Message::format("posture_stiffness is set without a posture: set posture too");
+    if (problem.posture_stiffness.size != n)
+      return Message::format("posture_stiffness has %d entries, the tree has %d DOFs", problem.posture_stiffness.size,
+                             n);
+  }
+  for (int i = 0; i < problem.posture.size; ++i)
+    if (!(std::abs(problem.posture[i]) <= kMaxMagnitude))
+      return Message::format("posture[%d] (%g) must be finite, within +-%g", i, problem.posture[i], kMaxMagnitude);
+  for (int i = 0; i < problem.posture_stiffness.size; ++i)
+    if (!(problem.posture_stiffness[i] >= 0.0 && problem.posture_stiffness[i] <= 1.0))
+      return Message::format("posture_stiffness[%d] must be in [0, 1], got %g", i, problem.posture_stiffness[i]);
+  return Message();
+}
+
+TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem& problem,
+                           const SolverOptions& options, TreeWorkspace& ws, Eigen::Ref<Eigen::VectorXd> params) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  TreeSolveResult result;
+  SolveResult& summary = result.summary;
+  auto finish = [&]() -> TreeSolveResult {
+    summary.elapsed_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+    return result;
+  };
+  summary.message = validate_tree_inputs(kind, tree, problem, options, ws, params);
+  if (!summary.message.empty()) {
+    summary.reason = TerminationReason::kInvalidInput;
+    return finish();
+  }
+  result.goal_count = problem.goals.size;
+  ws.params_backup = params;
+  ws.deadline.start(options.time_budget_usec, options.time_budget_usec > 0.0 ? ws.deadline.now_us() : 0.0);
+  if (!options.warm_start) params.setZero();
+  project_tree_to_limits(tree, params.data());
+
+  tree_forward_kinematics(tree, params.data(), ws);
+  const TreeErrors start_errors = tree_measure(tree, problem, options, ws, nullptr, nullptr, nullptr);
+  summary.initial_error = std::sqrt(2.0 * start_errors.cost);
+  summary.initial_position_error = start_errors.max_position;
+  summary.initial_orientation_error = start_errors.max_orientation;
+
+  TreeSolverStatus status;
+  status.reason = TerminationReason::kConverged;
+  if (!start_errors.all_met() || !problem.posture.empty()) status = solve_tree_dls(tree, problem, options, ws, params.data());
+  summary.iterations = status.iterations;
+  summary.escapes = status.escapes;
+  summary.reason = status.reason;
+  if (!params.allFinite()) {
+    params = ws.params_backup;
+    if (!options.warm_start) params.setZero();
+    project_tree_to_limits(tree, params.data());
+    summary.message = Message::format("%s produced a non-finite pose; the start pose was kept", to_string(kind));
+    summary.reason = TerminationReason::kStalled;
+  }
+  summary.budget_exhausted = ws.deadline.hit;
+
+  // The verdict from the pose returned, measured here: it cannot disagree with the pose.
+  tree_forward_kinematics(tree, params.data(), ws);
+  const TreeErrors final_errors =
+      tree_measure(tree, problem, options, ws, nullptr, nullptr, result.goal_error.data());
+  summary.final_error = std::sqrt(2.0 * final_errors.cost);
+  summary.final_position_error = final_errors.max_position;
+  summary.final_orientation_error = final_errors.max_orientation;
+  result.level_met = final_errors.level_met;
+  if (final_errors.all_met()) {
+    summary.reason = TerminationReason::kConverged;
+  } else if (summary.reason == TerminationReason::kConverged) {
+    summary.reason = TerminationReason::kStalled;
+  }
+  if (summary.budget_exhausted && summary.reason == TerminationReason::kStalled)
+    summary.reason = TerminationReason::kMaxIterations;
+  return finish();
+}
+
+}  // namespace ikchain

@@ -1,0 +1,314 @@
+// Coupled solves of whole trees: several effectors at once, strict priority levels, a floating
+// root, the posture task, limits at every level, no allocation, invalid problems by name.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstring>
+#include <random>
+
+#include "alloc_counter.hpp"
+#include "core/solve.hpp"
+#include "core/tree_solve.hpp"
+#include "tree_test_util.hpp"
+
+namespace ikchain {
+namespace {
+
+using test::Humanoid;
+
+// 6-D goals for `effectors` at the pose `q` of `tree` (position, and orientation weighted by 1 m^2).
+std::vector<TreeGoal> pose_goals_at(const Tree& tree, const Eigen::VectorXd& q, std::initializer_list<int> effectors,
+                                    int level, bool orientation = true) {
+  TreeWorkspace ws(tree, 1);
+  tree_forward_kinematics(tree, q.data(), ws);
+  std::vector<TreeGoal> goals;
+  for (int e : effectors) {
+    goals.push_back({Goal::position(tree_effector_position(tree, ws, e), e), level});
+    if (orientation) goals.push_back({Goal::orientation(tree_effector_orientation(tree, ws, e), e), level});
+  }
+  return goals;
+}
+
+// The errors solve_tree reports are the pose's: measured again from the params it returned.
+void expect_result_is_the_pose(const Tree& tree, const TreeProblem& p, const TreeSolveResult& r,
+                               const Eigen::VectorXd& q) {
+  TreeWorkspace ws(tree, p.goals.size);
+  tree_forward_kinematics(tree, q.data(), ws);
+  for (int g = 0; g < p.goals.size; ++g)
+    EXPECT_NEAR(glm::length(tree_goal_error(tree, ws, p.goals[g].goal)), r.goal_error[g], 1e-12) << "goal " << g;
+  EXPECT_TRUE(q.allFinite());
+  EXPECT_TRUE(within_tree_limits(tree, q.data(), 1e-9));
+}
+
+TEST(TreeSolve, BodyReachesEveryEffectorsPoseAtOnce) {
+  for (bool floating : {false, true}) {
+    const Tree t = test::make_humanoid(floating);
+    std::mt19937 rng(21);
+    TreeWorkspace ws(t, 12);
+    SolverOptions o;
+    int converged = 0;
+    const int trials = 100;
+    for (int trial = 0; trial < trials; ++trial) {
+      const Eigen::VectorXd target = test::random_tree_params(t, rng, 1.2, 0.2);
+      const std::vector<TreeGoal> goals =
+          pose_goals_at(t, target, {Humanoid::kLHand, Humanoid::kRHand, Humanoid::kLFoot, Humanoid::kRFoot,
+                                    Humanoid::kHeadEffector}, 1);
+      TreeProblem p;
+      p.goals = goals;
+      Eigen::VectorXd q = Eigen::VectorXd::Zero(t.dof_count());
+      const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+      ASSERT_TRUE(r.usable()) << r.summary.message.c_str();
+      expect_result_is_the_pose(t, p, r, q);
+      if (r.summary.reason != TerminationReason::kConverged)
+        std::printf("  trial %d: %s after %d iterations, %d escapes, errors %g m %g rad\n", trial,
+                    to_string(r.summary.reason), r.summary.iterations, r.summary.escapes,
+                    r.summary.final_position_error, r.summary.final_orientation_error);
+      if (r.summary.reason == TerminationReason::kConverged) {
+        ++converged;
+        EXPECT_LE(r.summary.final_position_error, o.position_tolerance);
+        EXPECT_LE(r.summary.final_orientation_error, o.orientation_tolerance);
+      }
+    }
+    EXPECT_GE(converged, 95) << (floating ? "floating" : "fixed") << " root";
+  }
+}
+
+TEST(TreeSolve, WarmStartTracksAMovingBodyInFewIterations) {
+  const Tree t = test::make_humanoid(true);
+  std::mt19937 rng(4);
+  TreeWorkspace ws(t, 12);
+  SolverOptions o;
+  const Eigen::VectorXd a = test::random_tree_params(t, rng, 0.8, 0.1);
+  const Eigen::VectorXd b = test::random_tree_params(t, rng, 0.8, 0.1);
+  Eigen::VectorXd q = a;
+  int worst_iterations = 0;
+  for (int frame = 0; frame <= 60; ++frame) {
+    const double s = frame / 60.0;
+    Eigen::VectorXd pose = (1 - s) * a + s * b;
+    project_tree_to_limits(t, pose.data());
+    const std::vector<TreeGoal> goals = pose_goals_at(
+        t, pose, {Humanoid::kHipsEffector, Humanoid::kLHand, Humanoid::kRHand, Humanoid::kLFoot, Humanoid::kRFoot}, 1);
+    TreeProblem p;
+    p.goals = goals;
+    const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    EXPECT_EQ(r.summary.reason, TerminationReason::kConverged) << "frame " << frame;
+    worst_iterations = std::max(worst_iterations, r.summary.iterations);
+  }
+  EXPECT_LE(worst_iterations, 10);
+}
+
+// Feet at level 1, hands chasing targets out of reach at level 2: the feet hold to 1e-4 m, and
+// the hands end where a solve that treats the feet as (nearly) hard constraints ends: the same
+// goals in one level, the feet weighted 1e8 times more.
+TEST(TreeSolve, PriorityLevelOneHoldsWhileLevelTwoChasesTheUnreachable) {
+  const Tree t = test::make_humanoid(true);
+  TreeWorkspace ws(t, 12);
+  SolverOptions o;
+  o.max_iterations = 400;
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  std::vector<TreeGoal> goals = pose_goals_at(t, rest, {Humanoid::kLFoot, Humanoid::kRFoot}, 1);
+  goals.push_back({Goal::position({1.5, 2.5, 1.5}, Humanoid::kLHand), 2});
+  goals.push_back({Goal::position({-1.5, 0.3, 2.0}, Humanoid::kRHand), 2});
+  TreeProblem p;
+  p.goals = goals;
+  Eigen::VectorXd q = rest;
+  const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+  ASSERT_TRUE(r.usable());
+  expect_result_is_the_pose(t, p, r, q);
+  SCOPED_TRACE(::testing::Message() << to_string(r.summary.reason) << " after " << r.summary.iterations
+                                    << " iterations, " << r.summary.escapes << " escapes");
+  EXPECT_TRUE(r.level_met[0]);
+  EXPECT_FALSE(r.level_met[1]);
+  EXPECT_NE(r.summary.reason, TerminationReason::kConverged);
+  for (int g = 0; g < 4; ++g) EXPECT_LE(r.goal_error[g], 1e-4) << "foot goal " << g;
+
+  std::vector<TreeGoal> penalty = goals;
+  for (TreeGoal& g : penalty) {
+    if (g.level == 1) g.goal.weight *= 1e8;
+    g.level = 1;
+  }
+  TreeProblem pp;
+  pp.goals = penalty;
+  o.max_iterations = 2000;
+  const double hands = std::hypot(r.goal_error[4], r.goal_error[5]);
+  // From the prioritised solve's pose, the penalty solve stays where it is: that pose is a minimum
+  // of the hands' error among the poses that keep the feet.
+  Eigen::VectorXd warm = q;
+  const TreeSolveResult rw = solve_tree(SolverKind::kDLS, t, pp, o, ws, warm);
+  ASSERT_TRUE(rw.usable());
+  EXPECT_NEAR(hands, std::hypot(rw.goal_error[4], rw.goal_error[5]), 1e-3 * hands);
+  // From the rest pose, it ends no better.
+  Eigen::VectorXd cold = rest;
+  const TreeSolveResult rc = solve_tree(SolverKind::kDLS, t, pp, o, ws, cold);
+  ASSERT_TRUE(rc.usable());
+  SCOPED_TRACE(::testing::Message() << "penalty: " << to_string(rc.summary.reason) << " after "
+                                    << rc.summary.iterations << " iterations, " << rc.summary.escapes << " escapes");
+  EXPECT_GE(std::hypot(rc.goal_error[4], rc.goal_error[5]), hands * (1.0 - 1e-3));
+}
+
+// A hand target on the floor in front: out of reach with the hips fixed in the air, reached with
+// a floating root (the body crouches and bends), while the feet stay planted at level 1.
+TEST(TreeSolve, FloatingRootCrouchesToTheFloorWithFeetPlanted) {
+  SolverOptions o;
+  o.max_iterations = 300;
+  const glm::dvec3 floor_target(0.25, 0.3, 0.45);
+  for (bool floating : {false, true}) {
+    const Tree t = test::make_humanoid(floating);
+    TreeWorkspace ws(t, 8);
+    const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+    std::vector<TreeGoal> goals = pose_goals_at(t, rest, {Humanoid::kLFoot, Humanoid::kRFoot}, 1);
+    goals.push_back({Goal::position(floor_target, Humanoid::kLHand), 2});
+    TreeProblem p;
+    p.goals = goals;
+    Eigen::VectorXd q = rest;
+    const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    ASSERT_TRUE(r.usable());
+    expect_result_is_the_pose(t, p, r, q);
+    SCOPED_TRACE(::testing::Message() << to_string(r.summary.reason) << " after " << r.summary.iterations
+                                      << " iterations, " << r.summary.escapes << " escapes");
+    for (int g = 0; g < 4; ++g) EXPECT_LE(r.goal_error[g], 1e-4) << "foot goal " << g;
+    if (floating) {
+      EXPECT_EQ(r.summary.reason, TerminationReason::kConverged);
+      EXPECT_LE(r.goal_error[4], o.position_tolerance);
+      EXPECT_LT(q[1], -0.1);  // the hips went down
+    } else {
+      EXPECT_GT(r.goal_error[4], 0.1);
+    }
+  }
+}
+
+// With a posture (the rest pose), the redundant DOFs stay nearer to it than without, and the goals
+// are met just the same.
+TEST(TreeSolve, PostureTaskResolvesRedundancyTowardThePreferredPose) {
+  const Tree t = test::make_humanoid(false);
+  std::mt19937 rng(8);
+  TreeWorkspace ws(t, 4);
+  SolverOptions o;
+  o.max_iterations = 200;
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  int nearer = 0;
+  const int trials = 30;
+  for (int trial = 0; trial < trials; ++trial) {
+    const Eigen::VectorXd target = test::random_tree_params(t, rng, 0.8);
+    const std::vector<TreeGoal> goals = pose_goals_at(t, target, {Humanoid::kLHand}, 1, false);
+    TreeProblem p;
+    p.goals = goals;
+    Eigen::VectorXd start = test::random_tree_params(t, rng, 0.8);
+    Eigen::VectorXd q_free = start, q_posture = start;
+    const TreeSolveResult free = solve_tree(SolverKind::kDLS, t, p, o, ws, q_free);
+    p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+    const TreeSolveResult posed = solve_tree(SolverKind::kDLS, t, p, o, ws, q_posture);
+    ASSERT_EQ(free.summary.reason, TerminationReason::kConverged);
+    ASSERT_EQ(posed.summary.reason, TerminationReason::kConverged);
+    EXPECT_LE(posed.goal_error[0], o.position_tolerance);
+    if (q_posture.norm() < q_free.norm()) ++nearer;
+  }
+  EXPECT_EQ(nearer, trials);
+}
+
+TEST(TreeSolve, LimitsHoldAtEveryLevel) {
+  const Tree t = test::make_humanoid(true);
+  std::mt19937 rng(31);
+  TreeWorkspace ws(t, 12);
+  SolverOptions o;
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  for (int trial = 0; trial < 60; ++trial) {
+    std::vector<TreeGoal> goals;
+    for (int e = 0; e < t.effector_count(); ++e)
+      goals.push_back({Goal::position({u(rng), 1.0 + u(rng), u(rng)}, e), 1 + (e % 3)});
+    TreeProblem p;
+    p.goals = goals;
+    Eigen::VectorXd q = test::random_tree_params(t, rng, 1.0, 0.1);
+    const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    ASSERT_TRUE(r.usable());
+    expect_result_is_the_pose(t, p, r, q);
+  }
+}
+
+TEST(TreeSolve, SolveAllocatesNothing) {
+  const Tree t = test::make_humanoid(true);
+  std::mt19937 rng(2);
+  TreeWorkspace ws(t, 12);
+  SolverOptions o;
+  const Eigen::VectorXd target = test::random_tree_params(t, rng, 1.0, 0.1);
+  std::vector<TreeGoal> goals = pose_goals_at(t, target, {Humanoid::kLFoot, Humanoid::kRFoot}, 1);
+  const std::vector<TreeGoal> hands = pose_goals_at(t, target, {Humanoid::kLHand, Humanoid::kRHand}, 2);
+  goals.insert(goals.end(), hands.begin(), hands.end());
+  goals.push_back({Goal::aim_at({0, 1.6, 3}, {0, 0, 1}, Humanoid::kHeadEffector), 3});
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  TreeProblem p;
+  p.goals = goals;
+  p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(t.dof_count());
+  const std::size_t before = test::allocation_count();
+  const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_TRUE(r.usable());
+  EXPECT_GT(r.summary.iterations, 0);
+}
+
+TEST(TreeSolve, InvalidProblemsAreRejectedByNameAndLeaveParamsUntouched) {
+  const Tree t = test::make_humanoid(true);
+  TreeWorkspace ws(t, 4);
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  const Eigen::VectorXd short_posture = Eigen::VectorXd::Zero(3);
+  struct Case {
+    const char* expect;
+    TreeGoal goal;
+    SolverKind kind;
+    bool short_posture;
+    int restarts;
+  };
+  const Case cases[] = {
+      {"level", {Goal::position({0, 1, 0}, 0), 0}, SolverKind::kDLS, false, 0},
+      {"level", {Goal::position({0, 1, 0}, 0), kMaxPriorityLevels + 1}, SolverKind::kDLS, false, 0},
+      {"effector", {Goal::position({0, 1, 0}, 6), 1}, SolverKind::kDLS, false, 0},
+      {"weight", {Goal::position({0, 1, 0}, 0, -1.0), 1}, SolverKind::kDLS, false, 0},
+      {"target_position", {Goal::position({0, NAN, 0}, 0), 1}, SolverKind::kDLS, false, 0},
+      {"target_orientation", {Goal::orientation({0, 0, 0, 0}, 0), 1}, SolverKind::kDLS, false, 0},
+      {"posture", {Goal::position({0, 1, 0}, 0), 1}, SolverKind::kDLS, true, 0},
+      {"max_restarts", {Goal::position({0, 1, 0}, 0), 1}, SolverKind::kDLS, false, 3},
+      {"two_bone", {Goal::position({0, 1, 0}, 0), 1}, SolverKind::kTwoBone, false, 0},
+  };
+  for (const Case& c : cases) {
+    TreeProblem p;
+    p.goals = Span<const TreeGoal>(&c.goal, 1);
+    if (c.short_posture) p.posture = Span<const double>(short_posture.data(), 3);
+    SolverOptions o;
+    o.max_restarts = c.restarts;
+    Eigen::VectorXd q = Eigen::VectorXd::Constant(t.dof_count(), 0.1);
+    const TreeSolveResult r = solve_tree(c.kind, t, p, o, ws, q);
+    EXPECT_EQ(r.summary.reason, TerminationReason::kInvalidInput) << c.expect;
+    EXPECT_NE(std::strstr(r.summary.message.c_str(), c.expect), nullptr) << r.summary.message.c_str();
+    EXPECT_TRUE((q.array() == 0.1).all()) << c.expect;
+  }
+  // A workspace sized for fewer goals, and params of the wrong size.
+  TreeGoal two[2] = {{Goal::position({0, 1, 0}, 0), 1}, {Goal::position({0, 1, 0}, 1), 1}};
+  TreeWorkspace small(t, 1);
+  TreeProblem p;
+  p.goals = Span<const TreeGoal>(two, 2);
+  Eigen::VectorXd q = rest;
+  EXPECT_NE(std::strstr(solve_tree(SolverKind::kDLS, t, p, SolverOptions(), small, q).summary.message.c_str(),
+                        "workspace"),
+            nullptr);
+  Eigen::VectorXd wrong(5);
+  EXPECT_NE(std::strstr(solve_tree(SolverKind::kDLS, t, p, SolverOptions(), ws, wrong).summary.message.c_str(),
+                        "params"),
+            nullptr);
+}
+
+TEST(TreeSolve, SolverTableSaysWhichSolversTakeTrees) {
+  const Tree t = test::make_humanoid(false);
+  TreeWorkspace ws(t, 1);
+  TreeGoal g{Goal::position({0.5, 1.3, 0.2}, Humanoid::kLHand), 1};
+  TreeProblem p;
+  p.goals = Span<const TreeGoal>(&g, 1);
+  for (const SolverInfo& info : solver_table()) {
+    Eigen::VectorXd q = Eigen::VectorXd::Zero(t.dof_count());
+    const TreeSolveResult r = solve_tree(info.kind, t, p, SolverOptions(), ws, q);
+    EXPECT_EQ(r.usable(), info.trees) << info.id << ": " << r.summary.message.c_str();
+  }
+}
+
+}  // namespace
+}  // namespace ikchain
