@@ -8,7 +8,10 @@ the private venv .deps/venv that `scripts/setup --plots` creates).
   tools/plot_bench.py table DIR               print the tables and the headline checks
   tools/plot_bench.py robots-table DIR        the real-arm table (robots.json, bench/robots_bench.cpp)
                                               as Markdown, as docs/benchmarks.md shows it
-  tools/plot_bench.py plots DIR --out IMG_DIR  write IMG_DIR/*.png (robots.png too when robots.json is there)
+  tools/plot_bench.py body-table DIR          the body replay (body.json, bench/body_bench.cpp) as Markdown:
+                                              one row per clip x solver x start, then the joint ranges
+  tools/plot_bench.py plots DIR --out IMG_DIR  write IMG_DIR/*.png (robots.png / body.png too when
+                                              robots.json / body.json are there)
 """
 import argparse
 import json
@@ -213,6 +216,63 @@ def cmd_robots_table(directory):
               f"{word[m['full_pose_p99_us']]} | {word[m['position_success']]} | {word[m['budget']]} |")
 
 
+def fmt_num(v, digits=3):
+    return f"{v:.{digits}g}" if finite(v) else "-"
+
+
+def fmt_pct(v):
+    return f"{100 * v:.2f} %" if finite(v) else "-"
+
+
+def cmd_body_table(directory):
+    """body.json as Markdown: the replay table, then the joint ranges against the recording."""
+    data = load(directory, "body.json")
+    meta = data["meta"]
+    print(f"Body replay on CMU motion capture: {meta['date']}, cpu: {meta['cpu']}, "
+          f"load avg at start {' '.join(meta.get('loadavg_at_start', '?').split()[:3])}, "
+          f"frames per clip: {meta['frames_per_clip']}{' (QUICK RUN)' if meta.get('quick') else ''}"
+          f"{'' if meta.get('tree_solvers') else '; no tree solver in this build (chain stack only)'}")
+    print(f"Success: {meta['success']}. Times: {meta['times']}. Starts: {meta['starts']}.")
+    print()
+    print("| clip | solver | start | frames | success | median µs | p99 µs | MPJPE mm | position error mm "
+          "p50 / p99 / max | rotation error ° p50 / p99 / max | foot slide mm | limit violations | median it. |")
+    print("|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
+    for r in data["records"]:
+        print(f"| {r['clip']} | {r['solver']} | {r['start']} | {r['frames']} | "
+              f"{fmt_pct(r['success_rate'])} | {fmt_us(r['median_us'])} | {fmt_us(r['p99_us'])} | "
+              f"{fmt_num(r['mpjpe_mm'])} | {fmt_num(r['position_error_p50_mm'], 2)} / "
+              f"{fmt_num(r['position_error_p99_mm'], 2)} / {fmt_num(r['position_error_max_mm'], 3)} | "
+              f"{fmt_num(r['rotation_error_p50_deg'], 2)} / {fmt_num(r['rotation_error_p99_deg'], 2)} / "
+              f"{fmt_num(r['rotation_error_max_deg'], 3)} | {fmt_num(r['foot_slide_mm'], 2)} | "
+              f"{r['limit_violations']} | {fmt_num(r['median_iterations'])} |"
+              + (f" {r['note']}" if r.get("note") else ""))
+    print()
+    print("Joint ranges (swing cone about the bone's rest direction, twist about it; degrees) and the "
+          "largest recorded swing / twist over every clip:")
+    print()
+    classes = {}
+    for c in data["clips"]:
+        for k in c["recorded_ranges"]["classes"]:
+            e = classes.setdefault(k["class"], dict(k, joints=[]))
+            if k["joints"] not in e["joints"]:  # per skeleton: CMU's LeftShoulder is a collar
+                e["joints"].append(k["joints"])
+            for f, pick in (("recorded_max_swing_deg", max), ("recorded_max_twist_deg", max),
+                            ("recorded_min_twist_deg", min)):
+                e[f] = pick(e[f], k[f])
+    print("| class | joints | cone | twist | recorded swing max | recorded twist min / max |")
+    print("|---|---|--:|--:|--:|--:|")
+    for name, e in classes.items():
+        print(f"| {name} | {' · '.join(e['joints'])} | {e['cone_deg']:g} | {e['twist_min_deg']:g} … "
+              f"{e['twist_max_deg']:g} | {e['recorded_max_swing_deg']:.1f} | "
+              f"{e['recorded_min_twist_deg']:.1f} / {e['recorded_max_twist_deg']:.1f} |")
+    print()
+    print("Recorded frames outside the ranges: " + ", ".join(
+        f"{c['clip']} {c['recorded_ranges']['frames_outside_ranges']} of {c['frames']}" for c in data["clips"])
+          + ". Skeletons: " + ", ".join(
+        f"{c['clip']} {c['joints']} joints / {c['params']} params, {c['metres_per_unit']:.6g} m per unit, "
+        f"rest stature {c['rest_stature_m']:.2f} m" for c in data["clips"]) + ".")
+
+
 # ----------------------------------------------------------------------------------- PNG
 
 # The lecture's three charts (convergence, time per iteration vs joints, iterations vs chain
@@ -265,6 +325,55 @@ def plot_robots(plt, directory, out_dir):
     print(f"wrote {path}")
 
 
+def plot_body(plt, directory, out_dir):
+    """body.png: per clip and solver x start, success, median/p99 CPU µs and MPJPE."""
+    from matplotlib import ticker
+    data = load(directory, "body.json")
+    meta = data["meta"]
+    recs = data["records"]
+    clips = [c["clip"] for c in data["clips"]]
+    series = []
+    for r in recs:
+        key = (r["solver"], r["start"])
+        if key not in series:
+            series.append(key)
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.8))
+    width = 0.8 / max(1, len(series))
+    for k, (solver, start) in enumerate(series):
+        by_clip = {r["clip"]: r for r in recs if r["solver"] == solver and r["start"] == start}
+        xs = [i + (k - (len(series) - 1) / 2) * width for i in range(len(clips))]
+        color = COLORS.get(solver, "#555555" if solver.startswith("chain_stack") else "#000000")
+        style = dict(color=color, alpha=1.0 if start == "warm" else 0.45, edgecolor="#333333", linewidth=0.5,
+                     label=f"{solver} {start}")
+        get = lambda c, f: by_clip[c][f] if c in by_clip and finite(by_clip[c][f]) else 0
+        axes[0].bar(xs, [100 * get(c, "success_rate") for c in clips], width, **style)
+        med = [get(c, "median_us") for c in clips]
+        p99 = [get(c, "p99_us") for c in clips]
+        axes[1].bar(xs, med, width, **style)
+        axes[1].errorbar(xs, med, yerr=[[0] * len(med), [max(0, b - a) for a, b in zip(med, p99)]], fmt="none",
+                         ecolor="#333333", elinewidth=0.8, capsize=2)
+        axes[2].bar(xs, [get(c, "mpjpe_mm") for c in clips], width, **style)
+    for ax, label in zip(axes, ("frames with every effector within 1 mm and 1° (%)",
+                                "CPU µs per frame (bar: median, whisker: p99)", "MPJPE (mm)")):
+        ax.set_xticks(range(len(clips)), clips)
+        ax.set_ylabel(label, fontsize=9)
+    axes[0].set_ylim(0, 105)
+    axes[0].axhline(99.9, color="#d62728", linestyle="--", linewidth=1)
+    axes[1].set_yscale("log")
+    axes[1].yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    axes[1].axhline(25, color="#d62728", linestyle="--", linewidth=1)
+    axes[0].legend(fontsize=7, loc="lower left")
+    fig.suptitle("Whole body on CMU motion capture: hips, hands, feet and head replayed as goals "
+                 "(dashed: issue 14's warm targets)", fontsize=10)
+    fig.text(0.99, 0.01, f"scripts/bench --body {meta['date']}{' (QUICK RUN)' if meta.get('quick') else ''}",
+             ha="right", va="bottom", fontsize=7, color="#666666")
+    fig.tight_layout(rect=(0, 0.03, 1, 0.95))
+    path = os.path.join(out_dir, "body.png")
+    fig.savefig(path, metadata={"Software": None})
+    plt.close(fig)
+    print(f"wrote {path}")
+
+
 def cmd_plots(directory, out_dir):
     import matplotlib
     matplotlib.use("Agg")  # files only, no display
@@ -273,6 +382,8 @@ def cmd_plots(directory, out_dir):
     os.makedirs(out_dir, exist_ok=True)
     if os.path.exists(os.path.join(directory, "robots.json")):
         plot_robots(plt, directory, out_dir)
+    if os.path.exists(os.path.join(directory, "body.json")):
+        plot_body(plt, directory, out_dir)
     if not os.path.exists(os.path.join(directory, "core.json")):
         return
     core = load(directory, "core.json")
@@ -383,7 +494,7 @@ def cmd_plots(directory, out_dir):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", choices=["table", "robots-table", "plots"])
+    ap.add_argument("command", choices=["table", "robots-table", "body-table", "plots"])
     ap.add_argument("directory", help="where core.json, precision.json and convergence.json are")
     ap.add_argument("--out", help="where to write the PNG files (plots; default: DIRECTORY)")
     args = ap.parse_args()
@@ -391,6 +502,8 @@ def main():
         cmd_table(args.directory)
     elif args.command == "robots-table":
         cmd_robots_table(args.directory)
+    elif args.command == "body-table":
+        cmd_body_table(args.directory)
     else:
         cmd_plots(args.directory, args.out or args.directory)
     return 0
