@@ -104,7 +104,7 @@ glm::dvec3 goal_error(const Chain& chain, const Goal& g, const Workspace& ws) {
     case GoalKind::kPosition:
       return g.target_position - effector_position(chain, ws, g.effector);
     case GoalKind::kOrientation:
-      return so3::log(glm::normalize(g.target_orientation) *
+      return so3::log(so3::normalized(g.target_orientation) *
                       glm::conjugate(effector_orientation(chain, ws, g.effector)));
     case GoalKind::kAim: {
       const glm::dvec3 a = glm::normalize(effector_orientation(chain, ws, g.effector) * g.aim_axis);
