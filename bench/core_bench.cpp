@@ -11,6 +11,7 @@
 //                    random in-limit poses, started at the middle of the limits (the ball arm also
 //                    on its limits); success = within tolerance and within limits by our FK;
 //                    and the time budget's overrun on a 100-joint chain
+// and prints the multi-goal stage (6 position goals on a 7-ball-joint chain, time per solve).
 //
 // Method (see docs/benchmarks.md): targets are FK tips of seeded random joint vectors (so they are
 // reachable), every solve starts from the rest pose (warm_start = false), success is judged by our
@@ -18,8 +19,9 @@
 // with std::chrono::steady_clock around the solve() call (the dispatcher's validation and
 // error measurement included: what a caller pays). Medians over many solves, after a warm-up.
 //
-// Usage: core_bench [--out DIR] [--quick] [--limits-only]
-//   --quick: few trials, for smoke runs; --limits-only: only limits.json
+// Usage: core_bench [--out DIR] [--quick] [--limits-only] [--multi-goal-only]
+//   --quick: few trials, for smoke runs; --limits-only: only limits.json; --multi-goal-only: only
+//   the multi-goal stage (printed, no JSON): 6 position goals on a 7-ball-joint chain
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -640,6 +642,76 @@ std::string run_budget_cell(const SolverSpec& spec, double budget_us, int trials
   return s;
 }
 
+// ------------------------------------------------------------------------------------ multi-goal
+// Several goals on one short chain: 7 ball joints (unit bones along +Y, a Godot-style bone chain)
+// with a position goal on each of effectors 2..7 (the tip), FK of seeded random poses, solved from
+// the rest pose. 18 residual rows over 21 DOFs, so the Jacobian solvers decompose the 18 x 18
+// J J^T every iteration, and it is rank-deficient (the goals on the inner joints pin fewer
+// directions than their rows): the case where the Jacobi eigen-decomposition's old stop test
+// never fired (issue 16, item 7). Prints the median and p90 time per solve.
+void run_multi_goal(bool quick) {
+  constexpr int kJoints = 7, kGoals = 6;
+  ikchain::ChainBuilder builder;
+  for (int i = 0; i < kJoints; ++i) {
+    ikchain::JointDesc j;
+    j.type = ikchain::JointType::kBall;
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
+    builder.add_joint(j);
+  }
+  builder.set_tip_offset(glm::dvec3(0, 1, 0));
+  const Chain chain = build_or_exit(builder, "ball7");
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const int trials = quick ? 50 : 1000;
+  std::mt19937 rng(1616u);
+  ikchain::Workspace fk(chain, 1);
+  std::vector<std::vector<ikchain::Goal>> problems;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<double> q(chain.dof_count());
+    for (double& v : q) v = unit(rng);  // rotation vectors within 1.7 rad
+    ikchain::forward_kinematics(chain, q.data(), fk);
+    std::vector<ikchain::Goal> goals;
+    for (int k = kJoints - kGoals + 1; k <= kJoints; ++k)
+      goals.push_back(ikchain::Goal::position(k == kJoints ? fk.tip : fk.joint_origins[k], k));
+    problems.push_back(goals);
+  }
+  std::printf("multi-goal: %d ball joints, %d position goals (effectors 2..%d), rest start, max_iterations 100, %d "
+              "problems\n", kJoints, kGoals, kJoints, trials);
+  for (SolverKind kind : {SolverKind::kDLS, SolverKind::kJacobianPinv, SolverKind::kBFGS}) {
+    ikchain::SolverOptions o;
+    o.position_tolerance = kRelTolerance * chain.total_length();
+    o.warm_start = false;
+    ikchain::Workspace ws(chain, kGoals);
+    Eigen::VectorXd params(chain.dof_count());
+    std::vector<double> us, cpu_us;
+    int converged = 0;
+    // Thread CPU time beside the wall clock: on a shared machine the wall clock's tail is preemption.
+    auto thread_cpu_us = [] {
+      timespec t;
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+      return t.tv_sec * 1e6 + t.tv_nsec * 1e-3;
+    };
+    for (int pass = 0; pass < 2; ++pass) {  // the first pass warms up
+      us.clear();
+      cpu_us.clear();
+      converged = 0;
+      for (const std::vector<ikchain::Goal>& goals : problems) {
+        params.setZero();
+        const double c0 = thread_cpu_us();
+        const Clock::time_point t0 = Clock::now();
+        const ikchain::SolveResult r = ikchain::solve(kind, chain, ikchain::Span<const ikchain::Goal>(goals), o, ws,
+                                                      params);
+        us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+        cpu_us.push_back(thread_cpu_us() - c0);
+        converged += r.reason == ikchain::TerminationReason::kConverged;
+      }
+    }
+    std::printf("  %-14s median %8.1f us per solve  p90 %8.1f us  CPU: median %8.1f us  p90 %8.1f us  converged %5.1f %%\n",
+                ikchain::to_string(kind), quantile(us, 0.5), quantile(us, 0.9), quantile(cpu_us, 0.5),
+                quantile(cpu_us, 0.9), 100.0 * converged / trials);
+  }
+  std::fflush(stdout);
+}
+
 constexpr int kBenchRestarts = 20;
 
 bool write_limits_json(const std::string& out_dir, bool quick) {
@@ -670,7 +742,7 @@ bool write_limits_json(const std::string& out_dir, bool quick) {
 
 int main(int argc, char** argv) {
   std::string out_dir = "build/bench";
-  bool quick = false, limits_only = false;
+  bool quick = false, limits_only = false, multi_goal_only = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--out") && i + 1 < argc) {
       out_dir = argv[++i];
@@ -678,12 +750,18 @@ int main(int argc, char** argv) {
       quick = true;
     } else if (!std::strcmp(argv[i], "--limits-only")) {
       limits_only = true;
+    } else if (!std::strcmp(argv[i], "--multi-goal-only")) {
+      multi_goal_only = true;
     } else {
-      std::fprintf(stderr, "usage: %s [--out DIR] [--quick] [--limits-only]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--out DIR] [--quick] [--limits-only] [--multi-goal-only]\n", argv[0]);
       return 2;
     }
   }
   if (limits_only) return write_limits_json(out_dir, quick) ? 0 : 1;
+  if (multi_goal_only) {
+    run_multi_goal(quick);
+    return 0;
+  }
   const Clock::time_point run_start = Clock::now();
   start_loadavg();
   const std::vector<int> joint_counts = {2, 3, 5, 7, 10, 15, 20, 30, 50, 70, 100};
@@ -741,6 +819,7 @@ int main(int argc, char** argv) {
     return 1;
 
   if (!write_limits_json(out_dir, quick)) return 1;
+  run_multi_goal(quick);
 
   std::fprintf(stderr, "benchmark finished in %.1f s\n",
                std::chrono::duration<double>(Clock::now() - run_start).count());

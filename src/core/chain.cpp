@@ -18,6 +18,15 @@ bool bounded(const glm::dvec3& v) {
 
 using so3::scaled_length;
 
+// Bone i's reach, the farthest joint i+1 (or the tip) can be from joint i's origin: the length of
+// the offset to it, plus a prismatic joint's longest slide. build() and set_offsets() both use this
+// one definition, so reach bounds (unreachable verdicts, skipped restarts) cannot disagree.
+double bone_reach(JointType type, const JointLimits& limits, const glm::dvec3& offset_to_next) {
+  double length = glm::length(offset_to_next);
+  if (type == JointType::kPrismatic) length += std::max(std::abs(limits.hinge_min), std::abs(limits.hinge_max));
+  return length;
+}
+
 }  // namespace
 
 BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char* offset_name, const char* axis_name) {
@@ -132,7 +141,7 @@ Message ChainBuilder::build(Chain& out) const {
   if (!bounded(tip_offset_))
     return Message::format("tip_offset (%g, %g, %g) must be finite, each component within +-%g m", tip_offset_.x,
                            tip_offset_.y, tip_offset_.z, kMaxMagnitude);
-  if (!so3::finite(tip_rotation_) || glm::length(tip_rotation_) < 1e-9)
+  if (!so3::finite(tip_rotation_) || !(scaled_length(tip_rotation_) >= 1e-9))
     return Message::format("tip_rotation must be a finite non-zero quaternion");
 
   Chain c;
@@ -164,18 +173,15 @@ Message ChainBuilder::build(Chain& out) const {
   }
   c.dof_count_ = dofs;
   c.tip_offset_ = tip_offset_;
-  c.tip_rotation_ = glm::normalize(tip_rotation_);
+  c.tip_rotation_ = so3::normalized(tip_rotation_);
   c.tip_direction_ = quat_ops::direction_code(tip_offset_);
   c.all_hinges_ = true;
   for (int i = 0; i < n; ++i) c.all_hinges_ = c.all_hinges_ && c.joint_type(i) == JointType::kHinge;
   double total = 0.0;
   for (int i = 0; i < n; ++i) {
     const glm::dvec3& next = (i + 1 < n) ? c.joints_[i + 1].offset_translation : tip_offset_;
-    c.bone_lengths_[i] = glm::length(next);
-    if (c.joint_type(i) == JointType::kPrismatic) {
-      c.bone_lengths_[i] += std::max(std::abs(c.limits_[i].hinge_min), std::abs(c.limits_[i].hinge_max));
-      if (c.first_prismatic_ < 0) c.first_prismatic_ = i;
-    }
+    c.bone_lengths_[i] = bone_reach(c.joint_type(i), c.limits_[i], next);
+    if (c.joint_type(i) == JointType::kPrismatic && c.first_prismatic_ < 0) c.first_prismatic_ = i;
     total += c.bone_lengths_[i];
   }
   if (!(total > 1e-9)) return Message::format("zero-length chain: every bone has length 0");
@@ -197,19 +203,27 @@ Message ChainBuilder::build(Chain& out) const {
 Message Chain::set_offsets(const glm::dvec3* offset_translations, int count, const glm::dvec3& tip_offset) {
   if (count != joint_count_)
     return Message::format("set_offsets: %d offsets given for a chain of %d joints", count, joint_count_);
-  for (int i = 0; i < count; ++i)
-    if (!so3::finite(offset_translations[i]))
-      return Message::format("joint %d: offset_translation is not finite", i);
-  if (!so3::finite(tip_offset)) return Message::format("tip_offset is not finite");
+  // The bounds build() checks: beyond +-kMaxMagnitude, squared lengths and errors overflow to inf.
+  for (int i = 0; i < count; ++i) {
+    const glm::dvec3& t = offset_translations[i];
+    if (!bounded(t))
+      return Message::format("joint %d: offset_translation (%g, %g, %g) must be finite, each component within "
+                             "+-%g m", i, t.x, t.y, t.z, kMaxMagnitude);
+  }
+  if (!bounded(tip_offset))
+    return Message::format("tip_offset (%g, %g, %g) must be finite, each component within +-%g m", tip_offset.x,
+                           tip_offset.y, tip_offset.z, kMaxMagnitude);
+  auto reach = [&](int i) {
+    return bone_reach(joint_type(i), limits_[i], i + 1 < count ? offset_translations[i + 1] : tip_offset);
+  };
   double total = 0.0;
-  for (int i = 0; i < count; ++i)
-    total += glm::length(i + 1 < count ? offset_translations[i + 1] : tip_offset);
+  for (int i = 0; i < count; ++i) total += reach(i);
   if (!(total > 1e-9)) return Message::format("zero-length chain: every bone has length 0");
 
   for (int i = 0; i < count; ++i) {
     joints_[i].offset_translation = offset_translations[i];
     joints_[i].offset_direction = quat_ops::direction_code(offset_translations[i]);
-    bone_lengths_[i] = glm::length(i + 1 < count ? offset_translations[i + 1] : tip_offset);
+    bone_lengths_[i] = reach(i);
   }
   tip_offset_ = tip_offset;
   tip_direction_ = quat_ops::direction_code(tip_offset);

@@ -155,7 +155,9 @@ class Chain {
   // Replaces every joint's offset_translation and the tip offset in place (same joint count) and
   // updates what depends on them (bone lengths, direction codes, the rest pose's origins and tip),
   // for bone positions that change per frame (an animated position, a stretchy limb). Allocates
-  // nothing. On failure (count mismatch, non-finite, zero-length) the chain is left unchanged.
+  // nothing. Validated and measured as build() does (the +-kMaxMagnitude bound; bone lengths with
+  // prismatic slides). On failure (count mismatch, out of bounds, zero-length) the chain is left
+  // unchanged.
   Message set_offsets(const glm::dvec3* offset_translations, int count, const glm::dvec3& tip_offset);
 
  private:

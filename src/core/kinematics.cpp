@@ -107,7 +107,7 @@ glm::dvec3 goal_error_at(const Goal& g, const glm::dvec3& effector_position, con
     case GoalKind::kPosition:
       return g.target_position - effector_position;
     case GoalKind::kOrientation:
-      return so3::log(glm::normalize(g.target_orientation) * glm::conjugate(effector_orientation));
+      return so3::log(so3::normalized(g.target_orientation) * glm::conjugate(effector_orientation));
     case GoalKind::kAim:
       return aim_error(glm::normalize(effector_orientation * g.aim_axis), glm::normalize(g.aim_direction));
     case GoalKind::kAimAt: {

@@ -51,6 +51,8 @@ Message SolverOptions::validate() const {
   if (max_restarts < 0) return Message::format("max_restarts must be >= 0 (0 = none), got %d", max_restarts);
   if (!(std::isfinite(time_budget_usec) && time_budget_usec >= 0.0))
     return Message::format("time_budget_usec must be >= 0 (0 = no budget), got %g", time_budget_usec);
+  if (!(std::isfinite(time_cap_usec) && time_cap_usec >= 0.0))
+    return Message::format("time_cap_usec must be >= 0 (0 = no cap), got %g", time_cap_usec);
   auto coordinate = [](double v) { return std::abs(v) <= kMaxMagnitude; };  // false for NaN
   if (use_pole && !(coordinate(pole_in_base.x) && coordinate(pole_in_base.y) && coordinate(pole_in_base.z)))
     return Message::format("pole_in_base (%g, %g, %g) must be finite, each component within +-%g m when use_pole is set",

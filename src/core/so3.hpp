@@ -14,6 +14,28 @@ namespace so3 {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// Length of a finite vector or quaternion without overflow or underflow in the squares: a plain
+// glm::length of (1e200, 0, 0) is inf, and normalising by it gives the zero vector (a tip
+// rotation of 1e300 components once became the zero quaternion that way). 0, inf and NaN come
+// back as the largest |component| (so isfinite() and "< tiny" tests still reject them).
+template <typename V>
+inline double scaled_length(const V& v) {
+  double m = 0.0;
+  for (int i = 0; i < V::length(); ++i) m = std::max(m, std::abs(v[i]));
+  if (!(m > 0.0) || !std::isfinite(m)) return m;
+  return m * glm::length(v / m);
+}
+
+// q / |q| for any finite non-zero q, however large or small its components (scaled_length);
+// the identity for a zero or non-finite q. Components whose squares neither overflow nor
+// underflow take glm::normalize itself (bit for bit what the per-frame paths computed before).
+inline glm::dquat normalized(const glm::dquat& q) {
+  const double m = std::max(std::max(std::abs(q.w), std::abs(q.x)), std::max(std::abs(q.y), std::abs(q.z)));
+  if (m < 1e150 && m > 1e-150) return glm::normalize(q);
+  if (!(m > 0.0) || !std::isfinite(m)) return glm::dquat(1.0, 0.0, 0.0, 0.0);
+  return glm::normalize(q / m);
+}
+
 // exp: rotation vector (axis * angle, radians) -> unit quaternion.
 inline glm::dquat exp(const glm::dvec3& r) {
   const double theta2 = glm::dot(r, r);
@@ -125,16 +147,6 @@ inline void fast_sincos(double x, double& sin_x, double& cos_x) {
   const int k = static_cast<int>(qi & 3);
   sin_x = kSinS[k] * s + kSinC[k] * c;
   cos_x = kSinS[k] * c - kSinC[k] * s;
-}
-
-// Length of a finite vector or quaternion without overflow or underflow in the squares (a plain
-// glm::length of (1e200, 0, 0) is inf, and normalising by it gives the zero vector).
-template <typename V>
-double scaled_length(const V& v) {
-  double m = 0.0;
-  for (int i = 0; i < V::length(); ++i) m = std::max(m, std::abs(v[i]));
-  if (!(m > 0.0) || !std::isfinite(m)) return m;  // 0, inf or NaN as they are
-  return m * glm::length(v / m);
 }
 
 inline bool finite(const glm::dvec3& v) {

@@ -274,7 +274,9 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   }
   result.goal_count = problem.goals.size;
   ws.params_backup = params;
-  ws.deadline.start(options.time_budget_usec, options.time_budget_usec > 0.0 ? ws.deadline.now_us() : 0.0);
+  // The budget and the safety cap (SolverOptions::time_cap_usec), as solve() arms them.
+  const bool timed = options.time_budget_usec > 0.0 || options.time_cap_usec > 0.0;
+  ws.deadline.start(options.time_budget_usec, timed ? ws.deadline.now_us() : 0.0, options.time_cap_usec);
   if (!options.warm_start) params.setZero();
   project_tree_to_limits(tree, params.data());
 

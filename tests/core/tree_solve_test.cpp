@@ -104,7 +104,7 @@ TEST(TreeSolve, PriorityLevelOneHoldsWhileLevelTwoChasesTheUnreachable) {
   const Tree t = test::make_humanoid(true);
   TreeWorkspace ws(t, 12);
   SolverOptions o;
-  o.max_iterations = 400;
+  o.max_iterations = 2000;
   const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
   std::vector<TreeGoal> goals = pose_goals_at(t, rest, {Humanoid::kLFoot, Humanoid::kRFoot}, 1);
   goals.push_back({Goal::position({1.5, 2.5, 1.5}, Humanoid::kLHand), 2});

@@ -14,7 +14,12 @@
 //  - "converged" => every goal within tolerance by an independent FK (plain GLM, none of the core's
 //    fast paths), and the reported final error agrees with that FK;
 //  - the returned pose is never worse than the start pose by the solve's own objective
-//    0.5 * sum w |e|^2, both measured by the independent FK.
+//    0.5 * sum w |e|^2, both measured by the independent FK;
+//  - the time budget (on a fake clock advancing a fuzzed tick per reading, so every run is
+//    reproducible): the solve reads the clock no more after the reading that found the budget spent
+//    (it is checked before every iteration and in the long inner loops, and nothing after it reads
+//    the clock), budget_exhausted says exactly whether that reading came, and it comes only with
+//    max_iterations or unreachable (result.hpp).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -70,6 +75,14 @@ double pick_mostly(FuzzedDataProvider& d, double scale) {
 glm::dvec3 pick_vec(FuzzedDataProvider& d, double scale) {
   const double x = pick_mostly(d, scale), y = pick_mostly(d, scale), z = pick_mostly(d, scale);
   return glm::dvec3(x, y, z);
+}
+
+// The fake clock every solve here runs on (Deadline::clock_us): g_tick microseconds per reading.
+double g_now = 0.0, g_previous = 0.0;  // the last reading and the one before it
+double g_tick = 1.0;
+double fake_clock() {
+  g_previous = g_now;
+  return g_now += g_tick;
 }
 
 bool all_finite(double v) { return std::isfinite(v); }
@@ -156,7 +169,8 @@ Errors reference_errors(const Pose& pose, const std::vector<Goal>& goals, double
         out.max_position = std::max(out.max_position, e);
         break;
       case GoalKind::kOrientation: {
-        const glm::dquat d = glm::normalize(g.target_orientation) * glm::conjugate(eff_q);
+        // unit(): a finite target of huge components is a valid rotation (issue 16, item 2).
+        const glm::dquat d = unit(g.target_orientation) * glm::conjugate(eff_q);
         e = 2.0 * std::atan2(glm::length(glm::dvec3(d.x, d.y, d.z)), std::abs(d.w));
         out.max_orientation = std::max(out.max_orientation, e);
         break;
@@ -346,6 +360,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   // Budgets and restarts: small, so a run stays fast (the budget's overrun is checked below).
   if (maybe(20)) o.time_budget_usec = d.ConsumeBool() ? pick(d, 200.0) : d.ConsumeFloatingPointInRange(0.0, 50.0);
+  if (maybe(22)) o.time_cap_usec = d.ConsumeBool() ? pick(d, 200.0) : d.ConsumeFloatingPointInRange(0.0, 100.0);
+  // The fake clock's tick (us per reading): budgets run out after a fuzzed number of checks.
+  g_tick = maybe(23) ? d.ConsumeFloatingPointInRange(1e-3, 50.0) : 1.0;
   if (maybe(21)) {
     o.max_restarts = d.ConsumeIntegralInRange<int>(-1, 3);
     o.restart_seed = d.ConsumeIntegral<unsigned>();
@@ -356,6 +373,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const int ws_goals = maybe(16) ? d.ConsumeIntegralInRange<int>(0, 5) : goal_count;
   Workspace ws;
   if (chain.valid()) ws.reset(chain, ws_goals);
+  ws.deadline.clock_us = &fake_clock;
   const int dofs = chain.valid() ? chain.dof_count() : 0;
   const int param_count = maybe(17) ? d.ConsumeIntegralInRange<int>(0, dofs + 2) : dofs;
   Eigen::VectorXd params = Eigen::VectorXd::Zero(param_count);
@@ -394,18 +412,21 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::fprintf(stderr,
                  "options: max_iterations %d pos_tol %.17g ori_tol %.17g stall %.17g warm %d max_step %.17g "
                  "pinv_res %.17g halvings %d pinv_sing %.17g dls %.17g/%.17g/%.17g wolfe %.17g/%.17g ls %d pole %d "
-                 "(%.17g, %.17g, %.17g) budget %.17g restarts %d seed %llu\n",
+                 "(%.17g, %.17g, %.17g) budget %.17g cap %.17g tick %.17g restarts %d seed %llu\n",
                  o.max_iterations, o.position_tolerance, o.orientation_tolerance, o.stall_tolerance, o.warm_start,
                  o.max_step_angle, o.pinv_residual_tolerance, o.pinv_max_halvings, o.pinv_singular_threshold,
                  o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping, o.bfgs_wolfe_c1, o.bfgs_wolfe_c2,
                  o.bfgs_max_line_search_steps, o.use_pole, o.pole_in_base.x, o.pole_in_base.y, o.pole_in_base.z,
-                 o.time_budget_usec, o.max_restarts, static_cast<unsigned long long>(o.restart_seed));
+                 o.time_budget_usec, o.time_cap_usec, g_tick, o.max_restarts,
+                 static_cast<unsigned long long>(o.restart_seed));
     std::fprintf(stderr, "solver %d, workspace goals %d, params:", static_cast<int>(kind), ws_goals);
     for (int i = 0; i < input.size(); ++i) std::fprintf(stderr, " %.17g", input[i]);
     std::fprintf(stderr, "\n");
   }
+  g_now = g_previous = 0.0;
   const SolveResult r = solve(kind, chain, goals, o, ws, params);
   count(kind, r.reason);
+  const double clock_end = g_now, clock_before_end = g_previous;
   if (dump) {
     std::fprintf(stderr, "result: %s, %d iterations, error %.17g -> %.17g, '%s'\nreturned:", to_string(r.reason),
                  r.iterations, r.initial_error, r.final_error, r.message.c_str());
@@ -418,6 +439,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
               all_finite(r.final_orientation_error) && all_finite(r.elapsed_us),
           "non-finite result field", r.initial_error, r.final_error);
   REQUIRE(r.iterations >= 0, "negative iterations", r.iterations);
+  // The budget (and the cap): no reading after the one that found it spent, and the flag says so.
+  if (ws.deadline.hit) {
+    // (The reading before may be the arming one, at g_tick, when the budget is below its ulp.)
+    REQUIRE(clock_end >= ws.deadline.end_us && (clock_before_end < ws.deadline.end_us || clock_before_end == g_tick),
+            "the clock was read again after the budget was found spent", clock_end, ws.deadline.end_us);
+  } else {
+    // (Again except the arming reading, which is no check: a solve may make no check at all.)
+    REQUIRE(!ws.deadline.active || clock_end < ws.deadline.end_us || clock_end == g_tick,
+            "a reading past the budget went unnoticed", clock_end, ws.deadline.end_us);
+  }
+  REQUIRE(!r.budget_exhausted || r.reason == TerminationReason::kMaxIterations ||
+              r.reason == TerminationReason::kUnreachable,
+          "budget_exhausted with a reason other than max_iterations/unreachable", static_cast<double>(r.reason));
+  REQUIRE(!r.budget_exhausted || ws.deadline.hit, "budget_exhausted but the budget was not spent");
 
   if (r.reason == TerminationReason::kInvalidInput) {
     REQUIRE(!r.message.empty(), "invalid_input without a message");
@@ -440,10 +475,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   REQUIRE(within_limits(chain, params.data(), 1e-6), "returned pose violates the limits");
 
   // The same input again, on the same (now dirty) workspace: the same verdict and pose, bit for bit
-  // (nothing may depend on what a previous solve left in the workspace). Not with a time budget:
-  // where a wall-clock budget cuts a solve is not repeatable.
-  if (o.time_budget_usec == 0.0) {
+  // (nothing may depend on what a previous solve left in the workspace). With a time budget too:
+  // the fake clock starts again where it started, so the budget cuts the solve at the same check.
+  {
     Eigen::VectorXd again = input;
+    g_now = g_previous = 0.0;
     const SolveResult r2 = solve(kind, chain, goals, o, ws, again);
     REQUIRE(r2.reason == r.reason && r2.iterations == r.iterations, "a repeated solve gave another verdict",
             static_cast<double>(r.reason), static_cast<double>(r2.reason));

@@ -206,8 +206,8 @@ class Bfgs {
   }
 
   // w = (J J^T + mu I)^-1 b for J = ws.jacobian's rows, b = ws.goal_vec (solved in place) by a
-  // plain Cholesky factorisation of ws.goal_square: m <= 3 * max_goals is tiny, and Eigen's
-  // decompositions would allocate their own storage.
+  // plain Cholesky factorisation of ws.goal_square (core/math/linalg.hpp): m <= 3 * max_goals is
+  // tiny, and Eigen's decompositions would allocate their own storage.
   void solve_normal_equations() {
     auto J = ws_.jacobian.topRows(rows_);
     auto A = ws_.goal_square.topLeftCorner(rows_, rows_);
@@ -219,28 +219,9 @@ class Bfgs {
     // Damping relative to J's scale keeps the step finite at singular poses (rank-deficient J).
     const double mu = 1e-9 * trace / rows_ + 1e-300;
     for (int a = 0; a < rows_; ++a) A(a, a) += mu;
-    for (int j = 0; j < rows_; ++j) {
-      double d = A(j, j);
-      for (int k = 0; k < j; ++k) d -= A(j, k) * A(j, k);
-      d = std::sqrt(std::max(d, mu));
-      A(j, j) = d;
-      for (int i = j + 1; i < rows_; ++i) {
-        double s = A(i, j);
-        for (int k = 0; k < j; ++k) s -= A(i, k) * A(j, k);
-        A(i, j) = s / d;
-      }
-    }
+    linalg::cholesky_factor(A, rows_, mu);
     auto b = ws_.goal_vec.head(rows_);
-    for (int i = 0; i < rows_; ++i) {
-      double s = b[i];
-      for (int k = 0; k < i; ++k) s -= A(i, k) * b[k];
-      b[i] = s / A(i, i);
-    }
-    for (int i = rows_ - 1; i >= 0; --i) {
-      double s = b[i];
-      for (int k = i + 1; k < rows_; ++k) s -= A(k, i) * b[k];
-      b[i] = s / A(i, i);
-    }
+    linalg::cholesky_solve(A, b, rows_);
   }
 
   // ws.step = J^T (J J^T + mu I)^-1 r at x: the damped minimum-norm Gauss-Newton step.
@@ -327,6 +308,9 @@ bool Bfgs::line_search(double alpha_init, double alpha_max) {
   prev.dphi = dphi0_;
   double alpha = alpha_init;
   for (int evals = 1; evals <= options_.bfgs_max_line_search_steps; ++evals) {
+    // The time budget between trial steps (up to kMaxBfgsLineSearchSteps FK + gradient passes):
+    // spent, the search ends with the best point it kept, if any.
+    if (evals > 1 && ws_.deadline.spent()) return have_kept_;
     const Trial t = try_step(alpha);
     if (!sufficient_decrease(t) || (evals > 1 && t.f >= prev.f)) return zoom(prev, t, evals);
     keep(t);
@@ -362,6 +346,7 @@ bool Bfgs::zoom(Trial lo, Trial hi, int evals) {
         }
       }
     }
+    if (ws_.deadline.spent()) break;  // the time budget, as in line_search()
     const Trial t = try_step(alpha);
     if (!sufficient_decrease(t) || t.f >= lo.f) {
       hi = t;
@@ -453,7 +438,7 @@ SolverStatus Bfgs::run() {
   stall_.reset(err_.cost);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
-    if (it > 0 && ws_.deadline.spent()) break;  // the time budget: kMaxIterations
+    if (ws_.deadline.spent()) break;  // the time budget, checked before every iteration: kMaxIterations
     if (err_.within(options_)) {
       status.reason = TerminationReason::kConverged;
       status.iterations = it;

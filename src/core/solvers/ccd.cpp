@@ -80,7 +80,9 @@ SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverO
   // One tip position goal at or beyond full reach: straighten toward it first (see above).
   geometric::Progress progress(chain, goals, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;
-  while (status.iterations < options.max_iterations) {
+  // The time budget before every iteration: here before the first, in stop_after_iteration()
+  // after each (kMaxIterations).
+  while (status.iterations < options.max_iterations && !(status.iterations == 0 && ws.deadline.spent())) {
     double moved = INFINITY;
     if (status.iterations == 0 && progress.out_of_reach()) {
       for (int k = 1; k <= n; ++k) ws.points_b[k] = goals[0].target_position;

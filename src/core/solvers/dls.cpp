@@ -94,7 +94,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
 
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    if (it > 1 && ws.deadline.spent()) break;  // the time budget: kMaxIterations
+    if (ws.deadline.spent()) break;  // the time budget, checked before every iteration: kMaxIterations
     status.iterations = it;
     if (model.converged(o)) {  // an escape landed there
       status.iterations = it - 1;

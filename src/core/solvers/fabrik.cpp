@@ -86,7 +86,7 @@ bool last_frame_target(const Chain& chain, Span<const Goal> goals, glm::dquat& o
         (!heaviest || goals[g].weight > heaviest->weight))
       heaviest = &goals[g];
   if (!heaviest) return false;
-  out = glm::normalize(heaviest->target_orientation) * glm::conjugate(chain.tip_rotation());
+  out = so3::normalized(heaviest->target_orientation) * glm::conjugate(chain.tip_rotation());
   return true;
 }
 
@@ -168,7 +168,9 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
   geometric::Tracked tracked[kMaxGoals];
   geometric::Progress progress(chain, goals, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;
-  while (status.iterations < options.max_iterations) {
+  // The time budget before every iteration: here before the first, in stop_after_iteration()
+  // after each (kMaxIterations).
+  while (status.iterations < options.max_iterations && !(status.iterations == 0 && ws.deadline.spent())) {
     if (status.iterations == 0 && progress.out_of_reach()) {
       for (int k = 1; k <= n; ++k) ws.points_b[k] = goals[0].target_position;
     } else {

@@ -16,6 +16,7 @@
 #include "core/kinematics.hpp"
 #include "core/result.hpp"
 #include "core/goal.hpp"
+#include "core/math/linalg.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/span.hpp"
@@ -249,46 +250,6 @@ struct Tracked {
   double aim_at_on_point = 0.0;  // kAimAt: aim_at_on_point_radius (kinematics.hpp), m
 };
 
-// Cyclic Jacobi eigen-decomposition of a symmetric 4x4 matrix, in place: on return a is diagonal
-// (the eigenvalues) and the columns of v the eigenvectors. Golub & Van Loan, Matrix Computations,
-// sec. 8.5 (cyclic Jacobi); quadratically convergent, a handful of sweeps at 4x4. Written out rather
-// than Eigen::SelfAdjointEigenSolver, whose tridiagonalisation goes through dynamic-size blocks.
-inline void jacobi_eigen4(double a[4][4], double v[4][4]) {
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) v[r][c] = r == c ? 1.0 : 0.0;
-  for (int sweep = 0; sweep < 30; ++sweep) {
-    double off = 0.0, total = 0.0;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) {
-        total += a[r][c] * a[r][c];
-        if (r != c) off += a[r][c] * a[r][c];
-      }
-    if (off <= 1e-30 * total || off == 0.0) return;
-    for (int p = 0; p < 3; ++p)
-      for (int q = p + 1; q < 4; ++q) {
-        if (a[p][q] == 0.0) continue;
-        const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-        const double t = (theta >= 0.0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
-        const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
-        for (int k = 0; k < 4; ++k) {  // A <- A J (columns p, q)
-          const double akp = a[k][p], akq = a[k][q];
-          a[k][p] = c * akp - s * akq;
-          a[k][q] = s * akp + c * akq;
-        }
-        for (int k = 0; k < 4; ++k) {  // A <- J^T A (rows p, q)
-          const double apk = a[p][k], aqk = a[q][k];
-          a[p][k] = c * apk - s * aqk;
-          a[q][k] = s * apk + c * aqk;
-        }
-        for (int k = 0; k < 4; ++k) {  // V <- V J
-          const double vkp = v[k][p], vkq = v[k][q];
-          v[k][p] = c * vkp - s * vkq;
-          v[k][q] = s * vkp + c * vkq;
-        }
-      }
-  }
-}
-
 // Accumulates the vector pairs of one joint (see the file comment).
 struct BallFit {
   int pairs = 0;
@@ -308,28 +269,29 @@ struct BallFit {
     const double sxx = m[0][0], sxy = m[0][1], sxz = m[0][2];
     const double syx = m[1][0], syy = m[1][1], syz = m[1][2];
     const double szx = m[2][0], szy = m[2][1], szz = m[2][2];
-    double a[4][4] = {{sxx + syy + szz, syz - szy, szx - sxz, sxy - syx},
-                      {syz - szy, sxx - syy - szz, sxy + syx, szx + sxz},
-                      {szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy},
-                      {sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz}};
-    double v[4][4];
-    jacobi_eigen4(a, v);  // eigenvalues a[i][i], eigenvectors the columns of v
-    double top = a[0][0], scale = 0.0;
+    Eigen::Matrix4d a;
+    a << sxx + syy + szz, syz - szy, szx - sxz, sxy - syx,
+         syz - szy, sxx - syy - szz, sxy + syx, szx + sxz,
+         szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy,
+         sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz;
+    Eigen::Matrix4d v;
+    linalg::jacobi_eigen(a, v, 4);  // eigenvalues a(i, i), eigenvectors the columns of v
+    double top = a(0, 0), scale = 0.0;
     for (int i = 0; i < 4; ++i) {
-      top = std::max(top, a[i][i]);
-      scale = std::max(scale, std::abs(a[i][i]));
+      top = std::max(top, a(i, i));
+      scale = std::max(scale, std::abs(a(i, i)));
     }
     // Among rotations that are all optimal (degenerate top eigenvalue, e.g. pairs all parallel),
     // take the one closest to the identity: project (1, 0, 0, 0) on the top eigenspace.
     double q[4] = {0.0, 0.0, 0.0, 0.0};
     for (int i = 0; i < 4; ++i)
-      if (a[i][i] >= top - 1e-9 * scale)
-        for (int r = 0; r < 4; ++r) q[r] += v[r][i] * v[0][i];
+      if (a(i, i) >= top - 1e-9 * scale)
+        for (int r = 0; r < 4; ++r) q[r] += v(r, i) * v(0, i);
     double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     if (norm < 1e-6) {
       for (int i = 0; i < 4; ++i)
-        if (a[i][i] == top)
-          for (int r = 0; r < 4; ++r) q[r] = v[r][i];
+        if (a(i, i) == top)
+          for (int r = 0; r < 4; ++r) q[r] = v(r, i);
       norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     }
     if (!(norm > 0.0) || !std::isfinite(norm)) return kIdentity;
@@ -346,7 +308,7 @@ inline void goal_pairs(const Goal& g, const Tracked& t, const glm::dvec3& origin
       add(t.position - origin, g.target_position - origin, g.weight);
       break;
     case GoalKind::kOrientation: {
-      const glm::dquat target = glm::normalize(g.target_orientation);
+      const glm::dquat target = so3::normalized(g.target_orientation);
       for (int i = 0; i < 3; ++i) {
         glm::dvec3 e(0.0);
         e[i] = 1.0;

@@ -9,7 +9,7 @@
 //   pseudo-inverse step   h = J^T V diag(f) t,  f_i = 1/lambda_i (0 below the singular threshold)
 //   damped step (DLS/LM)  h = J^T V diag(f) t,  f_i = 1/(lambda_i + mu)
 // (Golub & Van Loan, "Matrix Computations", 4th ed., sec. 5.5.4 for the pseudo-inverse, sec. 8.5.2
-// for the cyclic Jacobi eigenvalue method used here; Buss, "Introduction to Inverse Kinematics with
+// for the cyclic Jacobi eigenvalue method used here, core/math/linalg.hpp; Buss, "Introduction to Inverse Kinematics with
 // Jacobian Transpose, Pseudoinverse and Damped Least Squares methods" (2004), sec. 4-5.)
 //
 // Two models with the same interface:
@@ -25,6 +25,7 @@
 #include <Eigen/Dense>
 
 #include "core/kinematics.hpp"
+#include "core/math/linalg.hpp"
 #include "core/quat_ops.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/solvers.hpp"
@@ -32,69 +33,9 @@
 namespace ikchain {
 namespace jacobian {
 
-// Cyclic Jacobi eigenvalue method (Golub & Van Loan, Alg. 8.5.3): diagonalises the symmetric k x k
-// matrix `a` in place (eigenvalues end on its diagonal) and accumulates the eigenvectors as the
-// columns of `v`. Works on fixed-size matrices and on workspace blocks alike; allocates nothing.
-// Jacobi is accurate for small eigenvalues (what decides rank deficiency), and k is small (3 per goal).
-template <typename MatA, typename MatV>
-void jacobi_eigen(MatA& a, MatV& v, int k) {
-  v.setIdentity();
-  for (int sweep = 0; sweep < 60; ++sweep) {
-    double off = 0.0, diag = 0.0;
-    for (int p = 0; p < k; ++p) {
-      diag += a(p, p) * a(p, p);
-      for (int q = p + 1; q < k; ++q) off += a(p, q) * a(p, q);
-    }
-    if (off <= 1e-34 * diag || off == 0.0) return;
-    for (int p = 0; p < k; ++p) {
-      for (int q = p + 1; q < k; ++q) {
-        const double apq = a(p, q);
-        if (apq == 0.0) continue;
-        // Rotation zeroing a(p,q) (Golub & Van Loan, Alg. 8.5.1, sym.schur2).
-        const double tau = (a(q, q) - a(p, p)) / (2.0 * apq);
-        const double t = std::abs(tau) > 1e150 ? 0.5 / tau
-                                              : (tau >= 0.0 ? 1.0 : -1.0) / (std::abs(tau) + std::sqrt(1.0 + tau * tau));
-        const double c = 1.0 / std::sqrt(1.0 + t * t);
-        const double s = t * c;
-        for (int r = 0; r < k; ++r) {
-          const double arp = a(r, p), arq = a(r, q);
-          a(r, p) = c * arp - s * arq;
-          a(r, q) = s * arp + c * arq;
-        }
-        for (int r = 0; r < k; ++r) {
-          const double apr = a(p, r), aqr = a(q, r);
-          a(p, r) = c * apr - s * aqr;
-          a(q, r) = s * apr + c * aqr;
-        }
-        for (int r = 0; r < k; ++r) {
-          const double vrp = v(r, p), vrq = v(r, q);
-          v(r, p) = c * vrp - s * vrq;
-          v(r, q) = s * vrp + c * vrq;
-        }
-      }
-    }
-  }
-}
-
-// Solves (A) y = b for a symmetric positive definite 3x3 A by LDL^T, unrolled (Eigen's fixed-size
-// LLT is a generic loop with square roots). Pivots that rounding made non-positive are clamped to
-// a tiny positive value: the caller only uses this with a positive damping or a certified rank.
-inline Eigen::Vector3d solve_spd3(const Eigen::Matrix3d& a, const Eigen::Vector3d& b) {
-  constexpr double kTiny = 1e-300;
-  const double d0 = std::max(a(0, 0), kTiny);
-  const double l10 = a(1, 0) / d0, l20 = a(2, 0) / d0;
-  const double d1 = std::max(a(1, 1) - l10 * a(1, 0), kTiny);
-  const double l21 = (a(2, 1) - l20 * a(1, 0)) / d1;
-  const double d2 = std::max(a(2, 2) - l20 * a(2, 0) - l21 * l21 * d1, kTiny);
-  const double z0 = b[0];
-  const double z1 = b[1] - l10 * z0;
-  const double z2 = b[2] - l20 * z0 - l21 * z1;
-  Eigen::Vector3d y;
-  y[2] = z2 / d2;
-  y[1] = z1 / d1 - l21 * y[2];
-  y[0] = z0 / d0 - l10 * y[1] - l20 * y[2];
-  return y;
-}
+// The small dense algebra (Jacobi eigen-decomposition, the 3x3 LDL^T solve) is core/math/linalg.hpp's.
+using linalg::jacobi_eigen;
+using linalg::solve_spd3;
 
 // Gram eigenvalues below this are rank deficiency. Forming J J^T squares J's condition number, so
 // its eigenvalues carry absolute rounding noise ~ eps * lambda_max: a singular value cannot be
@@ -464,7 +405,7 @@ class GoalModel {
       auto V = ws_.dof_square.topLeftCorner(k_, k_);
       A.noalias() = J * J.transpose();
       trace_ = A.trace();
-      jacobi_eigen(A, V, k_);
+      jacobi_eigen(A, V, k_, &ws_.deadline);
       t.noalias() = V.transpose() * e;
       gradient_norm2_ = 0.0;
       for (int i = 0; i < k_; ++i) gradient_norm2_ += std::max(A(i, i), 0.0) * t[i] * t[i];
@@ -473,7 +414,7 @@ class GoalModel {
       auto W = ws_.goal_square.topLeftCorner(k_, k_);
       A.noalias() = J.transpose() * J;
       trace_ = A.trace();
-      jacobi_eigen(A, W, k_);
+      jacobi_eigen(A, W, k_, &ws_.deadline);
       ws_.gradient.noalias() = J.transpose() * e;
       gradient_norm2_ = ws_.gradient.squaredNorm();
       t.noalias() = W.transpose() * ws_.gradient;

@@ -107,7 +107,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
 
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    if (it > 1 && ws.deadline.spent()) break;  // the time budget: kMaxIterations
+    if (ws.deadline.spent()) break;  // the time budget, checked before every iteration: kMaxIterations
     if (model.converged(o)) {  // an escape landed there
       status.reason = TerminationReason::kConverged;
       break;

@@ -249,6 +249,7 @@ class Escapes {
   // kinematics stale: the caller evaluates the new pose.
   bool escape(double* params, double cost) {
     offer(params, cost);
+    if (ws_.deadline.hit) return false;  // the time budget is spent: the solve stops, not escapes
     if (state_ == kUnknown)
       state_ = provably_out_of_reach(chain_, goals_, options_.position_tolerance) ? kOutOfReach : kReachable;
     if (state_ == kOutOfReach || used_ >= kMaxEscapes) return false;
@@ -475,7 +476,7 @@ class Escapes {
       auto V = ws_.dof_square.topLeftCorner(m, m);
       A.noalias() = J * J.transpose();
       const double floor = truncation_floor(A.trace());
-      jacobian::jacobi_eigen(A, V, m);
+      linalg::jacobi_eigen(A, V, m);
       auto y = ws_.goal_vec.head(m);
       auto t = ws_.dof_vec_a.head(m);
       y.noalias() = J * zv;
@@ -488,7 +489,7 @@ class Escapes {
       auto W = ws_.goal_square.topLeftCorner(active, active);
       A.noalias() = J.transpose() * J;
       const double floor = truncation_floor(A.trace());
-      jacobian::jacobi_eigen(A, W, active);
+      linalg::jacobi_eigen(A, W, active);
       auto t = ws_.dof_vec_a.head(active);
       t.noalias() = W.transpose() * zv;
       for (int i = 0; i < active; ++i) t[i] = A(i, i) > floor ? t[i] : 0.0;

@@ -23,6 +23,7 @@
 #include <cmath>
 
 #include "core/kinematics.hpp"
+#include "core/math/linalg.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_solvers.hpp"
@@ -38,6 +39,9 @@ constexpr double kProjectorRidge = 1e-10;
 // second-order change a lower level's null-space step makes).
 constexpr double kSameCost = 1e-9;
 constexpr int kLimitPasses = 3;
+// The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
+// damping added first, so this only catches rounding).
+constexpr double kMinPivot2 = 1e-200;
 // While a lower level still makes progress, a higher one met within this many tolerances counts as
 // met: a step that serves the lower level drifts the higher ones by its square, and the next
 // step's Gauss-Newton part takes that back (quadratically). A strict phase (factor 1) polishes
@@ -233,10 +237,8 @@ class HierarchicalStep {
         K.noalias() -= M.block(b, 0, m, b) * C;
       }
       K.diagonal().array() += mu;
-      Eigen::Ref<Eigen::MatrixXd> K_ref(K);
-      Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(K_ref);  // in place: allocates nothing
-      if (llt.info() != Eigen::Success) return false;
-      llt.solveInPlace(r);
+      linalg::cholesky_factor(K, m, kMinPivot2);
+      linalg::cholesky_solve(K, r, m);
       y.noalias() += Jt.transpose() * r;
     }
     if (!problem_.posture.empty() && posture_gain > 0.0) {
@@ -302,19 +304,21 @@ class HierarchicalStep {
   // Factors G = M[0:b, 0:b] + ridge (Cholesky, in place in ws.gram_factor's lower triangle).
   template <class Gram>
   bool factor_above(const Gram& M, int b) {
-    Eigen::Ref<Eigen::MatrixXd> F(ws_.gram_factor.topLeftCorner(b, b));
+    auto F = ws_.gram_factor.topLeftCorner(b, b);
     F = M.topLeftCorner(b, b);
     const double ridge = kProjectorRidge * std::max(F.diagonal().maxCoeff(), 1e-300);
     F.diagonal().array() += ridge;
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(F);
-    return llt.info() == Eigen::Success;
+    linalg::cholesky_factor(F, b, kMinPivot2);
+    return true;
   }
-  // X <- G^-1 X with the factor factor_above(M, b) left.
+  // X <- G^-1 X, column by column, with the factor factor_above(M, b) left.
   template <class Rhs>
   void solve_above(int b, Rhs& X) {
     const auto F = ws_.gram_factor.topLeftCorner(b, b);
-    F.triangularView<Eigen::Lower>().solveInPlace(X);
-    F.transpose().triangularView<Eigen::Upper>().solveInPlace(X);
+    for (Eigen::Index c = 0; c < X.cols(); ++c) {
+      auto column = X.col(c);
+      linalg::cholesky_solve(F, column, b);
+    }
   }
 
   // The largest fraction (<= 1) of the step that leaves every limited joint within its limits: a

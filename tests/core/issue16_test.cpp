@@ -1,0 +1,427 @@
+// Regression tests of issue 16's core items, one per item, named after it. Each fails on b0e1161.
+#include <time.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+
+#include "core/math/linalg.hpp"
+#include "solver_test_util.hpp"
+
+namespace ikchain {
+namespace {
+
+// Three hinges (z, y, z) of 0.5 m along +Y, the tip 0.3 m further, turned by `tip_rotation`.
+Chain arm_with_tip_rotation(const glm::dquat& tip_rotation, Message* message = nullptr) {
+  ChainBuilder b;
+  for (int i = 0; i < 3; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = i == 1 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 0.5, 0);
+    b.add_joint(j);
+  }
+  b.set_tip_frame(glm::dvec3(0, 0.3, 0), tip_rotation);
+  Chain c;
+  const Message m = b.build(c);
+  if (message) *message = m;
+  return c;
+}
+
+glm::dquat tip_orientation(const Chain& chain, const Eigen::VectorXd& params) {
+  Workspace ws(chain, 1);
+  forward_kinematics(chain, params.data(), ws);
+  return effector_orientation(chain, ws, chain.joint_count());
+}
+
+// The angle between two rotations (rad).
+double angle_between(const glm::dquat& a, const glm::dquat& b) {
+  return glm::length(so3::log(glm::normalize(a * glm::conjugate(b))));
+}
+
+// Item 2: a finite tip rotation of huge components (1e300) is the rotation it scales, not the zero
+// quaternion (glm::length overflowed to inf, and q / inf = 0); a goal's target_orientation of huge
+// components likewise is its rotation, not an invalid input.
+TEST(Issue16, HugeTipRotationIsNormalisedNotZeroed) {
+  const glm::dquat unit = glm::angleAxis(2.0, glm::normalize(glm::dvec3(1, 2, 3)));
+  for (double scale : {1e300, 1e200, 1e160}) {  // squares overflow; (tiny ones are rejected, as rest rotations)
+    Message m;
+    const Chain huge = arm_with_tip_rotation(unit * scale, &m);
+    ASSERT_TRUE(m.empty()) << scale << ": " << m.c_str();
+    const glm::dquat stored = huge.tip_rotation();
+    EXPECT_NEAR(stored.w, unit.w, 1e-15) << scale;
+    EXPECT_NEAR(stored.x, unit.x, 1e-15) << scale;
+    EXPECT_NEAR(stored.y, unit.y, 1e-15) << scale;
+    EXPECT_NEAR(stored.z, unit.z, 1e-15) << scale;
+  }
+  // The round trip: an orientation goal made by FK of the unit-rotation chain, solved on the
+  // huge-rotation chain, is met there by the same FK (the old zero tip rotation made DLS report
+  // "converged" with error 0 while the tip frame was 2.12 rad off).
+  const Chain reference = arm_with_tip_rotation(unit);
+  const Chain huge = arm_with_tip_rotation(unit * 1e300);
+  const Eigen::VectorXd goal_pose = (Eigen::VectorXd(3) << 0.4, -0.7, 1.1).finished();
+  const glm::dquat target = tip_orientation(reference, goal_pose);
+  Workspace ws(huge, 1);
+  SolverOptions o = test::cold_start_options(huge);
+  for (const glm::dquat& given : {target, target * 1e300}) {  // the goal's own huge quaternion too
+    Eigen::VectorXd p = Eigen::VectorXd::Zero(3);
+    const SolveResult r = test::run(SolverKind::kDLS, huge, {Goal::orientation(given)}, o, ws, p);
+    ASSERT_TRUE(r.usable()) << r.message.c_str();
+    EXPECT_EQ(r.reason, TerminationReason::kConverged);
+    EXPECT_LE(angle_between(tip_orientation(reference, p), target), o.orientation_tolerance);
+    EXPECT_LE(r.final_orientation_error, o.orientation_tolerance);
+  }
+  // The same goal from the rest pose reports the real start error, not 0.
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(3);
+  o.max_iterations = 1;
+  const SolveResult r = test::run(SolverKind::kDLS, huge, {Goal::orientation(target)}, o, ws, p);
+  EXPECT_NEAR(r.initial_orientation_error, angle_between(tip_orientation(reference, Eigen::VectorXd::Zero(3)), target),
+              1e-12);
+}
+
+// A ball shoulder, a slide along +Y (0..0.8 m) 0.5 m up, a hinge elbow 0.5 m further, the tip 0.5 m
+// beyond: 0.5 + 0.8 + 0.5 reach from the shoulder at full slide... plus the first bone.
+Chain telescope() {
+  ChainBuilder b;
+  JointDesc shoulder;
+  b.add_joint(shoulder);
+  JointDesc slide;
+  slide.type = JointType::kPrismatic;
+  slide.hinge_axis = glm::dvec3(0, 1, 0);
+  slide.offset_translation = glm::dvec3(0, 0.5, 0);
+  slide.limits.has_hinge_limit = true;
+  slide.limits.hinge_min = 0.0;
+  slide.limits.hinge_max = 0.8;
+  b.add_joint(slide);
+  JointDesc elbow;
+  elbow.type = JointType::kHinge;
+  elbow.hinge_axis = glm::dvec3(1, 0, 0);
+  elbow.offset_translation = glm::dvec3(0, 0.5, 0);
+  b.add_joint(elbow);
+  b.set_tip_offset(glm::dvec3(0, 0.5, 0));
+  Chain c;
+  const Message m = b.build(c);
+  EXPECT_TRUE(m.empty()) << m.c_str();
+  return c;
+}
+
+// Item 3: set_offsets measures bones as build() does (a slide's range counts), and takes the same
+// +-kMaxMagnitude bound.
+TEST(Issue16, SetOffsetsKeepsSlidesAndTheMagnitudeBound) {
+  Chain c = telescope();
+  const std::vector<double> built = c.bone_lengths();
+  const double built_total = c.total_length();
+  EXPECT_DOUBLE_EQ(built[1], 0.5 + 0.8);
+  const glm::dvec3 same[3] = {glm::dvec3(0.0), glm::dvec3(0, 0.5, 0), glm::dvec3(0, 0.5, 0)};
+  ASSERT_TRUE(c.set_offsets(same, 3, glm::dvec3(0, 0.5, 0)).empty());
+  EXPECT_EQ(c.bone_lengths(), built);  // exactly: one definition
+  EXPECT_EQ(c.total_length(), built_total);
+
+  // A target 2.1 m up needs the slide (bones alone reach 1.5 m): reachable, and reached.
+  Workspace ws(c, 1);
+  const SolverOptions o = test::cold_start_options(c);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+  const SolveResult r = test::run(SolverKind::kDLS, c, {Goal::position(glm::dvec3(0, 2.1, 0))}, o, ws, p);
+  EXPECT_EQ(r.reason, TerminationReason::kConverged);
+  EXPECT_LE(glm::length(test::tip_of(c, p) - glm::dvec3(0, 2.1, 0)), o.position_tolerance);
+
+  // Beyond the bound: rejected with the field named, the chain unchanged.
+  const glm::dvec3 huge[3] = {glm::dvec3(0.0), glm::dvec3(0, 1e60, 0), glm::dvec3(0, 0.5, 0)};
+  Message m = c.set_offsets(huge, 3, glm::dvec3(0, 0.5, 0));
+  EXPECT_NE(std::string(m.c_str()).find("joint 1: offset_translation"), std::string::npos) << m.c_str();
+  m = c.set_offsets(same, 3, glm::dvec3(-1e51, 0, 0));
+  EXPECT_NE(std::string(m.c_str()).find("tip_offset"), std::string::npos) << m.c_str();
+  EXPECT_EQ(c.bone_lengths(), built);
+  EXPECT_EQ(c.total_length(), built_total);
+  EXPECT_EQ(c.offset_translation(1), glm::dvec3(0, 0.5, 0));
+  // Just inside the bound is accepted, and solves give finite errors.
+  const glm::dvec3 big[3] = {glm::dvec3(0.0), glm::dvec3(0, 1e50, 0), glm::dvec3(0, 0.5, 0)};
+  ASSERT_TRUE(c.set_offsets(big, 3, glm::dvec3(0, 0.5, 0)).empty());
+  p.setZero();
+  const SolveResult far = test::run(SolverKind::kDLS, c, {Goal::position(glm::dvec3(0, 2.1, 0))}, o, ws, p);
+  EXPECT_TRUE(std::isfinite(far.initial_error) && std::isfinite(far.final_error));
+}
+
+// A 7-DOF arm with limits on every joint (the restarts suite's kind of arm): a full-pose goal it
+// cannot meet near the middle of its limits stalls; with restarts and a budget the budget ends the
+// search.
+Chain limited_arm() {
+  ChainBuilder b;
+  const glm::dvec3 axes[7] = {{0, 0, 1}, {0, 1, 0}, {0, 0, 1}, {0, 1, 0}, {0, 0, 1}, {0, 1, 0}, {0, 0, 1}};
+  for (int i = 0; i < 7; ++i) {
+    JointDesc j;
+    j.type = JointType::kHinge;
+    j.hinge_axis = axes[i];
+    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 0.3, 0);
+    j.limits.has_hinge_limit = true;
+    j.limits.hinge_min = -0.3;
+    j.limits.hinge_max = 0.3;
+    b.add_joint(j);
+  }
+  b.set_tip_offset(glm::dvec3(0, 0.1, 0));
+  Chain c;
+  EXPECT_TRUE(b.build(c).empty());
+  return c;
+}
+
+// Item 4: budget_exhausted comes only with max_iterations or unreachable (result.hpp), also when the
+// budget ends restarts after a stalled run.
+TEST(Issue16, BudgetExhaustedNeverComesWithStalled) {
+  const Chain c = limited_arm();
+  Workspace ws(c, 2);
+  // Far out of the limited workspace but within the reach sphere: not provably unreachable, so
+  // restarts run; every run stalls on the limits.
+  const std::vector<Goal> goals = {Goal::position(glm::dvec3(1.2, 0.9, 0.5)),
+                                   Goal::orientation(glm::angleAxis(2.5, glm::dvec3(1, 0, 0)))};
+  SolverOptions o = test::cold_start_options(c);
+  o.max_restarts = 1000;
+  static double now = 0.0;
+  ws.deadline.clock_us = [] { return now += 1.0; };
+  int budget_ended = 0;
+  for (SolverKind kind : {SolverKind::kDLS, SolverKind::kJacobianPinv, SolverKind::kBFGS, SolverKind::kCCD}) {
+    for (double budget : {50.0, 200.0, 1000.0, 3000.0}) {
+      o.time_budget_usec = budget;
+      Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+      const SolveResult r = test::run(kind, c, goals, o, ws, p);
+      ASSERT_TRUE(r.usable()) << r.message.c_str();
+      EXPECT_NE(r.reason, TerminationReason::kConverged) << to_string(kind);
+      if (r.budget_exhausted) {
+        ++budget_ended;
+        EXPECT_TRUE(r.reason == TerminationReason::kMaxIterations || r.reason == TerminationReason::kUnreachable)
+            << to_string(kind) << " " << budget << ": " << to_string(r.reason);
+      }
+      // The budget stopped it (1000 restarts never finish in 3000 readings): it must say so.
+      EXPECT_TRUE(r.budget_exhausted) << to_string(kind) << " " << budget << ": " << to_string(r.reason)
+                                      << " restarts " << r.restarts;
+    }
+  }
+  EXPECT_EQ(budget_ended, 16);
+  ws.deadline.clock_us = nullptr;
+}
+
+// Item 5: "converged" and the reported error always agree with the error forward_kinematics() gives
+// for the returned params. DLS's own single-goal measurement (a fused FK summing in another order,
+// the distance recovered from a weighted cost) decided alone when within tolerance, so at a
+// tolerance near rounding it could call a pose converged whose measured error was above it, and
+// it reported its own number, not the measured one.
+TEST(Issue16, ConvergedAgreesWithTheMeasuredError) {
+  std::mt19937 rng(16);
+  int converged = 0, checked = 0;
+  for (int n : {3, 7, 12}) {
+    const Chain c = test::make_hinge_chain(n, 0.37);
+    Workspace ws(c, 1);
+    for (int trial = 0; trial < 300; ++trial) {
+      const glm::dvec3 target = test::tip_of(c, test::random_params(c, rng, 1.0));
+      SolverOptions o = test::cold_start_options(c);
+      o.max_iterations = 40;
+      o.position_tolerance = std::uniform_real_distribution<double>(1e-15, 8e-15)(rng) * c.total_length();
+      for (SolverKind kind : {SolverKind::kDLS, SolverKind::kJacobianPinv, SolverKind::kBFGS}) {
+        Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+        // Weighted, as a game's goals often are: the solver's own error is then a rescaled cost.
+        const double weight = std::uniform_real_distribution<double>(0.1, 10.0)(rng);
+        const SolveResult r = test::run(kind, c, {Goal::position(target, 0, weight)}, o, ws, p);
+        ++checked;
+        const double measured = glm::length(test::tip_of(c, p) - target);
+        EXPECT_EQ(r.final_position_error, measured) << to_string(kind) << " n " << n << " trial " << trial;
+        if (r.reason == TerminationReason::kConverged) {
+          ++converged;
+          EXPECT_LE(measured, o.position_tolerance) << to_string(kind) << " n " << n << " trial " << trial;
+        } else {
+          EXPECT_GT(measured, o.position_tolerance) << to_string(kind) << " n " << n << " trial " << trial;
+        }
+      }
+    }
+  }
+  EXPECT_GT(converged, 0) << checked;  // the tolerance is met, so the claim is tested
+}
+
+// ------------------------------------------------------------------------------------ item 7
+// The Jacobian of the multi-goal case the issue measured: the 7-joint benchmark chain with a
+// position goal on each of effectors 2..7, at a near-straight pose (rank-deficient).
+Eigen::MatrixXd multi_goal_jacobian(const Chain& c, const Eigen::VectorXd& q) {
+  std::vector<Goal> goals;
+  Workspace ws(c, 6);
+  forward_kinematics(c, q.data(), ws);
+  for (int k = 2; k <= 7; ++k) goals.push_back(Goal::position(glm::dvec3(0.0), k));
+  compute_dof_axes(c, q.data(), ws);
+  Eigen::MatrixXd J(18, c.dof_count());
+  compute_jacobian(c, Span<const Goal>(goals), ws, J);
+  return J;
+}
+
+// Item 7: the Jacobi eigen-decomposition stops once the off-diagonal part is below rounding
+// relative to the matrix, rank-deficient or not (the old test, below rounding, ran all 60 sweeps
+// on every rank-deficient matrix), and decomposes as accurately as before.
+TEST(Issue16, JacobiStopsEarlyOnRankDeficientMatrices) {
+  const Chain c = test::make_hinge_chain(7);
+  std::mt19937 rng(7);
+  int worst = 0;
+  for (int trial = 0; trial < 50; ++trial) {
+    // Near-straight poses (angles within 1e-3 rad): J nearly loses rank; straight: it does.
+    const Eigen::VectorXd q = trial == 0 ? Eigen::VectorXd::Zero(7) : test::random_params(c, rng, trial < 25 ? 1e-3 : 3.0);
+    const Eigen::MatrixXd J = multi_goal_jacobian(c, q);
+    for (bool row_form : {false, true}) {  // J^T J (7 x 7) and J J^T (18 x 18, rank <= 7)
+      const Eigen::MatrixXd A = row_form ? Eigen::MatrixXd(J * J.transpose()) : Eigen::MatrixXd(J.transpose() * J);
+      const int k = static_cast<int>(A.rows());
+      Eigen::MatrixXd D = A, V(k, k);
+      const int sweeps = linalg::jacobi_eigen(D, V, k);
+      worst = std::max(worst, sweeps);
+      EXPECT_LE(sweeps, 12) << "trial " << trial << " k " << k;
+      EXPECT_LE((V * D.diagonal().asDiagonal() * V.transpose() - A).norm(), 1e-13 * A.norm()) << trial;
+      EXPECT_LE((V.transpose() * V - Eigen::MatrixXd::Identity(k, k)).norm(), 1e-13) << trial;
+      EXPECT_LE((D - Eigen::MatrixXd(D.diagonal().asDiagonal())).norm(), 8 * 2.3e-16 * A.norm()) << trial;
+    }
+  }
+  EXPECT_LT(worst, linalg::kMaxJacobiSweeps);
+  // The Cholesky of the same header solves an SPD system of that size exactly (to rounding).
+  const Eigen::MatrixXd J = multi_goal_jacobian(c, test::random_params(c, rng, 2.0));
+  Eigen::MatrixXd A = J * J.transpose() + 1e-3 * Eigen::MatrixXd::Identity(18, 18);
+  const Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(18, -1.0, 2.0);
+  Eigen::VectorXd b = A * x;
+  Eigen::MatrixXd L = A;
+  linalg::cholesky_factor(L, 18, 1e-300);
+  linalg::cholesky_solve(L, b, 18);
+  EXPECT_LE((b - x).norm(), 1e-8 * x.norm());
+}
+
+// ------------------------------------------------------------------------------------ item 6
+// A fake clock advancing 1 us per reading, and the readings made after the deadline was found spent.
+double g_fake_now = 0.0;
+double fake_clock() { return g_fake_now += 1.0; }
+
+const SolverKind kIterative[] = {SolverKind::kCCD, SolverKind::kJacobianPinv, SolverKind::kDLS, SolverKind::kBFGS,
+                                 SolverKind::kFABRIK};
+
+// Item 6: the budget is checked before every iteration, the first included: a budget found spent at
+// the first check stops every solver before any iteration (the start pose comes back), and no solver
+// reads the clock again once it found the budget spent (the exit work reads none).
+TEST(Issue16, TimeBudgetCheckedBeforeTheFirstIteration) {
+  const Chain c = test::make_hinge_chain(30, 0.1);
+  std::mt19937 rng(61);
+  const std::vector<Goal> goals = {Goal::position(test::tip_of(c, test::random_params(c, rng, 1.0)))};
+  Workspace ws(c, 1);
+  ws.deadline.clock_us = &fake_clock;
+  SolverOptions o = test::cold_start_options(c);
+  o.position_tolerance = 1e-14 * c.total_length();
+  o.stall_tolerance = 0.0;
+  o.max_iterations = 1000;
+  for (SolverKind kind : kIterative) {
+    for (double budget : {0.5, 1.0, 4.0}) {
+      o.time_budget_usec = budget;
+      g_fake_now = 0.0;
+      Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+      const SolveResult r = test::run(kind, c, goals, o, ws, p);
+      EXPECT_TRUE(r.budget_exhausted) << to_string(kind) << " " << budget;
+      EXPECT_EQ(r.reason, TerminationReason::kMaxIterations) << to_string(kind) << " " << budget;
+      // Armed at 1: the deadline is 1 + budget, and the reading that found it spent is the last.
+      EXPECT_EQ(g_fake_now, std::ceil(1.0 + budget)) << to_string(kind) << " " << budget;
+      if (budget <= 1.0) {
+        EXPECT_EQ(r.iterations, 0) << to_string(kind);
+        EXPECT_EQ(p, Eigen::VectorXd::Zero(c.dof_count())) << to_string(kind);
+        EXPECT_NEAR(r.final_error, r.initial_error, 1e-12 * r.initial_error) << to_string(kind);
+      }
+    }
+  }
+}
+
+// Thread CPU time (us): what the solve itself used, whatever else the machine runs (the budget is
+// wall-clock, which only runs faster than this one).
+double thread_cpu_us() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec * 1e6 + t.tv_nsec * 1e-3;
+}
+
+// Item 6: every solve ends within 1.1 x budget + 20 us of CPU time, on the cases that overran it:
+// multi-goal chains (long eigen-decompositions), a 200-joint chain (long pseudo-inverse iterations
+// of many halvings) and BFGS's line search, each bound to run far past the budget, with restarts.
+// (Not claimed yet: budgets below ~100 us, where a solve's fixed set-up and exit work can exceed
+// the 20 us slack - 91 us for the pseudo-inverse with 6 goals at a 50 us budget - and BFGS on
+// long chains, whose O(DOF^2) set-up and iterations overrun: 250 us at a 200 us budget on 200
+// hinges, ~1.4 ms whatever the budget on 200 ball joints.)
+TEST(Issue16, TimeBudgetHoldsInCpuTime) {
+  struct Case {
+    Chain chain;
+    std::vector<Goal> goals;
+  };
+  std::mt19937 rng(66);
+  std::vector<Case> cases;
+  for (int n : {7, 60}) {  // six position goals spread over the chain
+    Case k{test::make_hinge_chain(n, 1.0 / n), {}};
+    Workspace fk(k.chain, 1);
+    const Eigen::VectorXd q = test::random_params(k.chain, rng, 2.0);
+    forward_kinematics(k.chain, q.data(), fk);
+    for (int g = 1; g <= 6; ++g) {
+      const int e = n - (6 - g) * (n / 7);
+      k.goals.push_back(Goal::position(e == n ? fk.tip : fk.joint_origins[e] + glm::dvec3(0.3, 0, 0), e));
+    }
+    cases.push_back(k);
+  }
+  {
+    Case k{test::make_hinge_chain(200, 0.01), {}};
+    k.goals = {Goal::position(test::tip_of(k.chain, test::random_params(k.chain, rng, 0.5)))};
+    cases.push_back(k);
+  }
+  double worst_ratio = 0.0;
+  for (Case& k : cases) {
+    Workspace ws(k.chain, static_cast<int>(k.goals.size()));
+    SolverOptions o;
+    o.position_tolerance = 1e-15 * k.chain.total_length();
+    o.stall_tolerance = 0.0;
+    o.max_iterations = 100000;
+    o.max_restarts = 3;
+    for (SolverKind kind : {SolverKind::kDLS, SolverKind::kJacobianPinv, SolverKind::kBFGS}) {
+      if (kind == SolverKind::kBFGS && k.chain.dof_count() > 100) continue;  // see above
+      for (double budget : {200.0, 1000.0}) {
+        o.time_budget_usec = budget;
+        double worst = 0.0;
+        for (int rep = 0; rep < 5; ++rep) {
+          Eigen::VectorXd p = test::random_params(k.chain, rng, 1.0);
+          const double t0 = thread_cpu_us();
+          const SolveResult r = test::run(kind, k.chain, k.goals, o, ws, p);
+          worst = std::max(worst, thread_cpu_us() - t0);
+          ASSERT_TRUE(r.usable()) << r.message.c_str();
+        }
+        EXPECT_LE(worst, 1.1 * budget + 20.0) << to_string(kind) << " joints " << k.chain.joint_count()
+                                              << " goals " << k.goals.size() << " budget " << budget;
+        worst_ratio = std::max(worst_ratio, worst / budget);
+      }
+    }
+  }
+  std::printf("worst CPU time / budget: %.3f\n", worst_ratio);
+}
+
+// ------------------------------------------------------------------------------------ item 8
+// Item 8: a misconfigured solve (the pseudo-inverse on 200 bones, 1,000 iterations and 1,000
+// restarts toward a tolerance it cannot meet: seconds on b0e1161) is stopped by the default safety
+// cap, documented in options.hpp and docs/solvers.md.
+TEST(Issue16, DefaultTimeCapStopsAMisconfiguredSolve) {
+  EXPECT_EQ(SolverOptions().time_cap_usec, kDefaultTimeCapUsec);
+  EXPECT_EQ(SolverOptions().time_budget_usec, 0.0);  // the budget itself stays the caller's choice
+  const Chain c = test::make_ball_chain(200, 0.01);
+  std::mt19937 rng(8);
+  const std::vector<Goal> goals = {Goal::position(test::tip_of(c, test::random_params(c, rng, 0.5)))};
+  Workspace ws(c, 1);
+  SolverOptions o;
+  o.max_iterations = 1000;
+  o.max_restarts = 1000;
+  o.position_tolerance = 1e-300;  // never met: every run goes on until it stalls, then restarts
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+  const double t0 = thread_cpu_us();
+  const SolveResult r = test::run(SolverKind::kJacobianPinv, c, goals, o, ws, p);
+  const double cpu = thread_cpu_us() - t0;
+  EXPECT_TRUE(r.budget_exhausted);
+  EXPECT_EQ(r.reason, TerminationReason::kMaxIterations);
+  EXPECT_LT(r.restarts, 1000);
+  EXPECT_LE(cpu, 1.1 * kDefaultTimeCapUsec + 20.0);
+  EXPECT_LE(r.final_error, r.initial_error);
+  // The cap is an option like the budget: 0 turns it off, and it is validated.
+  o.time_cap_usec = -1.0;
+  const SolveResult bad = test::run(SolverKind::kJacobianPinv, c, goals, o, ws, p);
+  EXPECT_EQ(bad.reason, TerminationReason::kInvalidInput);
+  EXPECT_NE(std::string(bad.message.c_str()).find("time_cap_usec"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ikchain
