@@ -21,7 +21,6 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   joint_pre_rotations.assign(joints, glm::dquat(1.0, 0.0, 0.0, 0.0));
   dof_axes.assign(dofs, glm::dvec3(0.0));
   jacobian.setZero(rows, dofs);
-  projected.setZero(rows, dofs);
   row_square.setZero(rows, rows);
   row_factor.setZero(rows, rows);
   gram_factor.setZero(rows, rows);

@@ -73,7 +73,6 @@ struct TreeWorkspace {
   // The coupled solvers' linear algebra. Rows: 3 per goal, in level order (goal_order); columns:
   // the DOFs that move any goal's effector (active_dofs), each scaled by 1 / sqrt(motion cost).
   Eigen::MatrixXd jacobian;       // (3 * max_goals) x dofs, weighted rows
-  Eigen::MatrixXd projected;      // (3 * max_goals) x dofs: each level's rows in the null space above it
   Eigen::MatrixXd row_square;     // (3 * max_goals)^2: the Gram matrix J J^T of every row
   Eigen::MatrixXd row_factor;     // (3 * max_goals)^2: each level's damped matrix, factored in place
   Eigen::MatrixXd gram_factor;    // (3 * max_goals)^2: the rows above a level, factored in place

@@ -184,6 +184,8 @@ class HierarchicalStep {
   bool compute(const double* params, double mu, double posture_gain, int served) {
     served_ = served;
     for (int pass = 0; pass <= kLimitPasses; ++pass) {
+      auto M = ws_.row_square.topLeftCorner(rows_, rows_);
+      gram(M);  // of J as the limits leave it (correct() reuses it: the same J)
       if (!hierarchical(params, ws_.residual, mu, served < levels_.count ? 0.0 : posture_gain)) return false;
       if (pass == kLimitPasses || !block_limits(params)) break;
     }
@@ -211,8 +213,7 @@ class HierarchicalStep {
  private:
   bool hierarchical(const double* params, const Eigen::VectorXd& residual, double mu, double posture_gain) {
     const auto J = ws_.jacobian.topLeftCorner(rows_, cols_);
-    auto M = ws_.row_square.topLeftCorner(rows_, rows_);
-    gram(M);
+    const auto M = ws_.row_square.topLeftCorner(rows_, rows_);  // gram() of this J
     auto y = ws_.dof_vec_a.head(cols_);
     y.setZero();
     for (int l = 0; l < served_; ++l) {
@@ -220,26 +221,27 @@ class HierarchicalStep {
       auto r = ws_.row_vec_a.segment(b, m);
       r = residual.segment(b, m);
       r.noalias() -= J.middleRows(b, m) * y;
+      // The level's rows in the null space of the rows A above it are Jt = Jl - C^T A with
+      // C = G^-1 A Jl^T; Jt is never formed: K = Jt Jt^T = Jl Jl^T - (Jl A^T) C, and the step
+      // Jt^T z = Jl^T z - A^T (C z).
       auto K = ws_.row_factor.block(b, b, m, m);
-      auto Jt = ws_.projected.middleRows(b, m).leftCols(cols_);
-      if (b == 0) {
-        K = M.block(0, 0, m, m);
-        Jt = J.middleRows(0, m);
-      } else {
-        // C = G^-1 (A Jl^T), Jt = Jl - C^T A, K = Jl Jl^T - (Jl A^T) C.
+      K = M.block(b, b, m, m);
+      auto C = ws_.coupling.topLeftCorner(b, m);
+      if (b > 0) {
         if (!factor_above(M, b)) return false;
-        auto C = ws_.coupling.topLeftCorner(b, m);
         C = M.block(0, b, b, m);
         solve_above(b, C);
-        Jt = J.middleRows(b, m);
-        Jt.noalias() -= C.transpose() * J.topRows(b);
-        K = M.block(b, b, m, m);
         K.noalias() -= M.block(b, 0, m, b) * C;
       }
       K.diagonal().array() += mu;
       linalg::cholesky_factor(K, m, kMinPivot2);
       linalg::cholesky_solve(K, r, m);
-      y.noalias() += Jt.transpose() * r;
+      y.noalias() += J.middleRows(b, m).transpose() * r;
+      if (b > 0) {
+        auto w = ws_.row_vec_b.head(b);
+        w.noalias() = C * r;
+        y.noalias() -= J.topRows(b).transpose() * w;
+      }
     }
     if (!problem_.posture.empty() && posture_gain > 0.0) {
       auto v = ws_.dof_vec_b.head(cols_);
