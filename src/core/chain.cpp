@@ -11,11 +11,6 @@ namespace ikchain {
 
 namespace {
 
-// Every component finite and within +-kMaxMagnitude.
-bool bounded(const glm::dvec3& v) {
-  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
-}
-
 using so3::scaled_length;
 
 // Bone i's reach, the farthest joint i+1 (or the tip) can be from joint i's origin: the length of
@@ -37,7 +32,7 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
     e.message = m;
     return e;
   };
-  if (!bounded(j.offset_translation))
+  if (!within_magnitude(j.offset_translation))
     return fail(offset_name,
                 Message::format("joint %d: %s (%g, %g, %g) must be finite, each component within "
                                 "+-%g m", i, offset_name, j.offset_translation.x, j.offset_translation.y, j.offset_translation.z,
@@ -56,7 +51,7 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
       return fail(axis_name,
                   Message::format("joint %d: %s (the slide axis) must be a finite non-zero vector", i, axis_name));
     axis /= len;
-    if (!l.has_hinge_limit || !bounded(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
+    if (!l.has_hinge_limit || !within_magnitude(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
       return fail("limits.hinge_min",
                   Message::format("joint %d: a prismatic joint needs has_hinge_limit with finite hinge_min <= "
                                   "hinge_max (its slide range, m)", i));
@@ -138,7 +133,7 @@ Message ChainBuilder::build(Chain& out) const {
   out = Chain();
   const int n = static_cast<int>(joints_.size());
   if (n == 0) return Message::format("chain has 0 joints: add at least one joint");
-  if (!bounded(tip_offset_))
+  if (!within_magnitude(tip_offset_))
     return Message::format("tip_offset (%g, %g, %g) must be finite, each component within +-%g m", tip_offset_.x,
                            tip_offset_.y, tip_offset_.z, kMaxMagnitude);
   if (!so3::finite(tip_rotation_) || !(scaled_length(tip_rotation_) >= 1e-9))
@@ -206,11 +201,11 @@ Message Chain::set_offsets(const glm::dvec3* offset_translations, int count, con
   // The bounds build() checks: beyond +-kMaxMagnitude, squared lengths and errors overflow to inf.
   for (int i = 0; i < count; ++i) {
     const glm::dvec3& t = offset_translations[i];
-    if (!bounded(t))
+    if (!within_magnitude(t))
       return Message::format("joint %d: offset_translation (%g, %g, %g) must be finite, each component within "
                              "+-%g m", i, t.x, t.y, t.z, kMaxMagnitude);
   }
-  if (!bounded(tip_offset))
+  if (!within_magnitude(tip_offset))
     return Message::format("tip_offset (%g, %g, %g) must be finite, each component within +-%g m", tip_offset.x,
                            tip_offset.y, tip_offset.z, kMaxMagnitude);
   auto reach = [&](int i) {

@@ -31,6 +31,11 @@ namespace ikchain {
 // rejected by name rather than turned into inf or a silently zero direction.
 constexpr double kMaxMagnitude = 1e50;
 constexpr double kMaxWeight = 1e30;
+// Every component finite and within +-kMaxMagnitude (false for NaN): the one bound check of
+// coordinates, for chains, trees and goals.
+inline bool within_magnitude(const glm::dvec3& v) {
+  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
+}
 
 enum class JointType : uint8_t {
   kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)

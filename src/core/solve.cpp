@@ -25,11 +25,6 @@ const char* to_string(TerminationReason reason) {
 
 namespace {
 
-// Every component finite and within +-kMaxMagnitude (false for NaN).
-bool bounded3(const glm::dvec3& v) {
-  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
-}
-
 // The start pose solve() defines: the caller's params (warm start) or the rest pose, projected onto
 // the limits. Recomputed from the backup when a solve must fall back to it.
 void make_start_pose(const Chain& chain, const SolverOptions& options, Eigen::Ref<Eigen::VectorXd> params) {
@@ -306,7 +301,7 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
       return Message::format("goal %d: effector must be in 0..%d, got %d", i, chain.joint_count(), g.effector);
     switch (g.kind) {
       case GoalKind::kPosition:
-        if (!bounded3(g.target_position))
+        if (!within_magnitude(g.target_position))
           return Message::format("goal %d: target_position (%g, %g, %g) must be finite, each component within "
                                  "+-%g m", i, g.target_position.x, g.target_position.y, g.target_position.z,
                                  kMaxMagnitude);
@@ -322,18 +317,18 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
       case GoalKind::kAim:
         // Bounded: normalising (1e200, 0, 0) divides by an infinite length and gives the zero vector,
         // which would read as "aim met".
-        if (!bounded3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+        if (!within_magnitude(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
           return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
                                  kMaxMagnitude);
-        if (!bounded3(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
+        if (!within_magnitude(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
           return Message::format("goal %d: aim_direction must be a non-zero vector, each component within +-%g", i,
                                  kMaxMagnitude);
         break;
       case GoalKind::kAimAt:
-        if (!bounded3(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+        if (!within_magnitude(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
           return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
                                  kMaxMagnitude);
-        if (!bounded3(g.target_position))
+        if (!within_magnitude(g.target_position))
           return Message::format("goal %d: target_position (the point to aim at) (%g, %g, %g) must be finite, each "
                                  "component within +-%g m", i, g.target_position.x, g.target_position.y,
                                  g.target_position.z, kMaxMagnitude);

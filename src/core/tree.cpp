@@ -9,24 +9,19 @@ namespace ikchain {
 
 namespace {
 
-TreeBuildError joint_error(int joint, const char* field, const Message& message) {
+TreeBuildError build_error(int joint, int effector, const char* field, const Message& message) {
   TreeBuildError e;
   e.joint = joint;
-  e.field = field;
-  e.message = message;
-  return e;
-}
-
-TreeBuildError effector_error(int effector, const char* field, const Message& message) {
-  TreeBuildError e;
   e.effector = effector;
   e.field = field;
   e.message = message;
   return e;
 }
-
-bool bounded(const glm::dvec3& v) {
-  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
+TreeBuildError joint_error(int joint, const char* field, const Message& message) {
+  return build_error(joint, -1, field, message);
+}
+TreeBuildError effector_error(int effector, const char* field, const Message& message) {
+  return build_error(-1, effector, field, message);
 }
 
 // The longest a joint's slide can add to the distance to its children (0 for turning joints).
@@ -121,7 +116,7 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     if (d.joint < 0 || d.joint >= n)
       return effector_error(e, "joint",
                             Message::format("effector %d: joint (%d) must be in [0, %d)", e, d.joint, n));
-    if (!bounded(d.offset))
+    if (!within_magnitude(d.offset))
       return effector_error(e, "offset",
                             Message::format("effector %d: offset (%g, %g, %g) must be finite, each component "
                                             "within +-%g m", e, d.offset.x, d.offset.y, d.offset.z, kMaxMagnitude));

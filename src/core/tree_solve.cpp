@@ -174,14 +174,6 @@ bool within_tree_limits(const Tree& tree, const double* params, double slack) {
   return true;
 }
 
-namespace {
-
-bool bounded3(const glm::dvec3& v) {
-  return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
-}
-
-}  // namespace
-
 Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProblem& problem,
                              const SolverOptions& options, const TreeWorkspace& ws,
                              const Eigen::Ref<const Eigen::VectorXd>& params) {
@@ -219,7 +211,7 @@ Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProble
       return Message::format("goal %d: weight must be in (0, %g], got %g", i, kMaxWeight, g.weight);
     const int k = static_cast<int>(g.kind);
     if (k < 0 || k > static_cast<int>(GoalKind::kAimAt)) return Message::format("goal %d: unknown kind %d", i, k);
-    if (!bounded3(g.target_position))
+    if (!within_magnitude(g.target_position))
       return Message::format("goal %d: target_position must be finite, within +-%g m", i, kMaxMagnitude);
     if (g.kind == GoalKind::kOrientation) {
       const double len = so3::scaled_length(g.target_orientation);

@@ -119,6 +119,21 @@ double progress(const TreeErrors& after, double after_posture, const TreeErrors&
   return gain;
 }
 
+// Calls visit(joint, first_dof, column) for every limited joint among the active columns, once
+// per joint (a ball's three columns together); stops early when visit returns true, and returns
+// whether it did.
+template <class Visit>
+bool any_limited_joint(const Tree& tree, const TreeWorkspace& ws, int columns, Visit&& visit) {
+  for (int c = 0; c < columns;) {
+    const int d = ws.active_dofs[c];
+    const int j = ws.dof_joint[d];
+    const int width = j >= 0 && tree.joint_type(j) == JointType::kBall ? 3 : 1;
+    if (j >= 0 && tree.has_limits(j) && visit(j, d, c)) return true;
+    c += width;
+  }
+  return false;
+}
+
 class HierarchicalStep {
  public:
   HierarchicalStep(const Tree& tree, const TreeProblem& problem, TreeWorkspace& ws)
@@ -331,24 +346,17 @@ class HierarchicalStep {
   double fraction_to_bounds(const double* params) const {
     constexpr double kMinFraction = 0.05;
     double fraction = 1.0;
-    for (int c = 0; c < cols_;) {
-      const int d = ws_.active_dofs[c];
-      const int j = ws_.dof_joint[d];
-      if (j < 0 || !tree_.has_limits(j)) {
-        ++c;
-        continue;
-      }
+    any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int) {
       const JointLimits& l = tree_.limits(j);
       const double* s = ws_.step.data() + d;
       if (tree_.joint_type(j) != JointType::kBall) {
         const double to = s[0] > 0.0 ? l.hinge_max - params[d] : l.hinge_min - params[d];
         if (s[0] != 0.0 && std::abs(s[0]) > std::abs(to)) fraction = std::min(fraction, std::max(to / s[0], 0.0));
-        ++c;
-        continue;
+        return false;
       }
-      double p[3] = {params[d] + s[0], params[d + 1] + s[1], params[d + 2] + s[2]};
       // A ball resting on its boundary slides along it (the active set took the outward part): the
       // projection takes back what the curved boundary adds, a second-order amount.
+      double p[3] = {params[d] + s[0], params[d + 1] + s[1], params[d + 2] + s[2]};
       if (!joint_within_limits(JointType::kBall, l, p, 1e-9) && !ball_params_on_boundary(l, params + d)) {
         double lo = 0.0, hi = 1.0;
         for (int k = 0; k < 20; ++k) {
@@ -358,8 +366,8 @@ class HierarchicalStep {
         }
         fraction = std::min(fraction, lo);
       }
-      c += 3;
-    }
+      return false;
+    });
     return std::max(fraction, kMinFraction);
   }
 
@@ -367,29 +375,23 @@ class HierarchicalStep {
   // anything new was blocked (the step is then computed again).
   bool block_limits(const double* params) {
     bool changed = false;
-    for (int c = 0; c < cols_;) {
-      const int d = ws_.active_dofs[c];
-      const int j = ws_.dof_joint[d];
-      if (j < 0 || !tree_.has_limits(j)) {
-        ++c;
-        continue;
-      }
+    any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
       if (tree_.joint_type(j) != JointType::kBall) {
         if (one_dof_blocked(tree_.limits(j), params[d], ws_.step[d]) && ws_.jacobian.col(c).head(rows_).any()) {
           ws_.jacobian.col(c).head(rows_).setZero();
           changed = true;
         }
-        ++c;
-        continue;
+        return false;
       }
       glm::dvec3 normals[2];
       const int count = ball_params_blocked(tree_.limits(j), params + d, ws_.step.data() + d, normals);
       for (int k = 0; k < count; ++k) remove_ball_direction(ws_.jacobian, rows_, c, normals[k]);
       changed = changed || count > 0;
-      c += 3;
-    }
+      return false;
+    });
     return changed;
   }
+
 
   double stiffness(int d) const { return problem_.posture_stiffness.empty() ? 1.0 : problem_.posture_stiffness[d]; }
   bool is_active(int d) const { return ws_.dof_column[d] >= 0; }
@@ -427,22 +429,10 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
 // True when an active joint rests on a bound of its limits (a hinge or slide on hinge_min/max, a
 // ball on its cone or a twist bound).
 bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const double* params) {
-  for (int c = 0; c < columns;) {
-    const int d = ws.active_dofs[c];
-    const int j = ws.dof_joint[d];
-    if (j < 0 || !tree.has_limits(j)) {
-      ++c;
-      continue;
-    }
-    if (tree.joint_type(j) == JointType::kBall) {
-      if (ball_params_on_boundary(tree.limits(j), params + d)) return true;
-      c += 3;
-      continue;
-    }
-    if (one_dof_blocked(tree.limits(j), params[d], -1.0) || one_dof_blocked(tree.limits(j), params[d], 1.0)) return true;
-    ++c;
-  }
-  return false;
+  return any_limited_joint(tree, ws, columns, [&](int j, int d, int) {
+    if (tree.joint_type(j) == JointType::kBall) return ball_params_on_boundary(tree.limits(j), params + d);
+    return one_dof_blocked(tree.limits(j), params[d], -1.0) || one_dof_blocked(tree.limits(j), params[d], 1.0);
+  });
 }
 
 // Stuck with goals unmet (the stall rule, no acceptable step at any damping, or a creep with a
@@ -455,32 +445,23 @@ bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const do
 bool escape(const Tree& tree, const TreeWorkspace& ws, int columns, int number, double* params) {
   bool moved = false;
   if (number % 2 == 1) {
-    for (int c = 0; c < columns;) {
-      const int d = ws.active_dofs[c];
-      const int j = ws.dof_joint[d];
-      if (j < 0 || !tree.has_limits(j)) {
-        ++c;
-        continue;
-      }
+    const double toward_other_end = number >= 3 ? kSecondUnpinFraction : 0.5;
+    any_limited_joint(tree, ws, columns, [&](int j, int d, int) {
       const JointLimits& l = tree.limits(j);
       if (tree.joint_type(j) == JointType::kBall) {
         if (ball_params_on_boundary(l, params + d)) {
           for (int k = 0; k < 3; ++k) params[d + k] *= 0.5;
           moved = true;
         }
-        c += 3;
-        continue;
-      }
-      const double toward_other_end = number >= 3 ? kSecondUnpinFraction : 0.5;
-      if (one_dof_blocked(l, params[d], -1.0)) {
+      } else if (one_dof_blocked(l, params[d], -1.0)) {
         params[d] = l.hinge_min + toward_other_end * (l.hinge_max - l.hinge_min);
         moved = true;
       } else if (one_dof_blocked(l, params[d], 1.0)) {
         params[d] = l.hinge_max - toward_other_end * (l.hinge_max - l.hinge_min);
         moved = true;
       }
-      ++c;
-    }
+      return false;
+    });
   }
   if (!moved) {
     for (int c = 0; c < columns; ++c) {
