@@ -401,7 +401,9 @@ inline void reach_feasible_targets_on_mixed_chains(SolverKind kind, OptionsFor o
     const SolverOptions o = options_for(chain);
     for (int t = 0; t < 50; ++t, ++tally.trials) {
       const glm::dvec3 target = tip_of(chain, random_params(chain, rng));
-      Eigen::VectorXd params(chain.dof_count());  // ignored: these options start from rest
+      // Ignored by these options (they start from rest), but validated like any params: never
+      // uninitialised memory (mingw's heap handed out NaNs where glibc's happened to be zero).
+      Eigen::VectorXd params = Eigen::VectorXd::Zero(chain.dof_count());
       run(kind, chain, {Goal::position(target)}, o, ws, params);
       ASSERT_TRUE(within_limits(chain, params.data())) << "chain " << chain_index << " trial " << t;
       if (glm::length(tip_of(chain, params) - target) <= o.position_tolerance) ++tally.ok;
@@ -436,7 +438,7 @@ inline void expect_orientation_aim_and_two_goal_solves(SolverKind kind, OptionsF
     };
     bool all = true;
     for (const std::vector<Goal>& goals : problems) {
-      Eigen::VectorXd params(chain.dof_count());
+      Eigen::VectorXd params = Eigen::VectorXd::Zero(chain.dof_count());
       const SolveResult r = run(kind, chain, goals, o, ws, params);
       all = all && r.reason == TerminationReason::kConverged;
       EXPECT_LE(r.final_position_error, o.position_tolerance);
@@ -583,7 +585,9 @@ inline void expect_jacobian_solves_allocate_nothing(SolverKind kind, OptionsFor 
       {Goal::position(hand), Goal::orientation(glm::dquat(1, 0, 0, 0)),   // generic, m >= n
        Goal::aim(glm::dvec3(0, 1, 0), glm::dvec3(1, 0, 0), 3), Goal::position(glm::dvec3(0, 3, 0), 4)},
   };
-  Eigen::VectorXd params(chain.dof_count());
+  // Zeros, not uninitialised memory: the first solve validates them (under wine the heap handed out
+  // non-finite values and every solve was refused as invalid input).
+  Eigen::VectorXd params = Eigen::VectorXd::Zero(chain.dof_count());
   for (const std::vector<Goal>& goals : problems) {
     run(kind, chain, goals, o, ws, params);  // warm-up
     const std::size_t before = allocation_count();
