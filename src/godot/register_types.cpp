@@ -9,6 +9,8 @@
 #include "binding/engine.hpp"
 #include "binding/interface.hpp"
 #include "editor_help.hpp"
+#include "ik_body.hpp"
+#include "ik_body_effector.hpp"
 #include "ik_chain.hpp"
 #include "ik_chain_goal.hpp"
 #include "ik_chain_joint.hpp"
@@ -24,6 +26,8 @@ namespace gdx = ikchain::gdx;
 gdx::ClassRecord* g_joint_record = nullptr;
 gdx::ClassRecord* g_goal_record = nullptr;
 gdx::ClassRecord* g_ik_chain_record = nullptr;
+gdx::ClassRecord* g_effector_record = nullptr;
+gdx::ClassRecord* g_ik_body_record = nullptr;
 
 gdx::ClassRecord* new_record(const char* name, const char* parent) {
   return new gdx::ClassRecord{gdx::StringName(name), gdx::StringName(parent), {}, {}};
@@ -50,11 +54,18 @@ void initialize(void*, GDExtensionInitializationLevel level) {
   ikchain::godot::IKChainGoal::register_class(*g_goal_record);
   g_ik_chain_record = new_record("IKChain", "SkeletonModifier3D");
   ikchain::godot::IKChain::register_class(*g_ik_chain_record);
+  g_effector_record = new_record("IKBodyEffector", "Resource");
+  ikchain::godot::IKBodyEffector::register_class(*g_effector_record);
+  g_ik_body_record = new_record("IKBody", "SkeletonModifier3D");
+  ikchain::godot::IKBody::register_class(*g_ik_body_record);
 }
 
 void deinitialize(void*, GDExtensionInitializationLevel level) {
   if (level != GDEXTENSION_INITIALIZATION_SCENE || g_ik_chain_record == nullptr) return;
-  unregister(g_ik_chain_record);  // reverse order of registration
+  unregister(g_ik_body_record);  // reverse order of registration
+  ikchain::godot::IKBody::unregister_class();
+  unregister(g_effector_record);
+  unregister(g_ik_chain_record);
   ikchain::godot::IKChain::unregister_class();
   unregister(g_goal_record);
   unregister(g_joint_record);

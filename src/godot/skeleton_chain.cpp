@@ -86,33 +86,6 @@ int shape_offsets(Span<const BonePose> poses, int joints, bool extend, const glm
   return non_uniform;
 }
 
-// The core joint of one bone's settings. A disabled limit is not passed on (nor checked), and
-// neither is the twist axis when no limit of the ball joint uses it.
-JointDesc joint_desc(const JointSettings& s) {
-  JointDesc j;
-  j.type = s.type;
-  if (s.type == JointType::kHinge) {
-    j.hinge_axis = s.hinge_axis_in_bone;
-    if (s.hinge_limit_enabled) {
-      j.limits.has_hinge_limit = true;
-      j.limits.hinge_min = s.hinge_min;
-      j.limits.hinge_max = s.hinge_max;
-    }
-    return j;
-  }
-  if (s.cone_limit_enabled || s.twist_limit_enabled) j.limits.twist_axis = s.twist_axis_in_bone;
-  if (s.cone_limit_enabled) {
-    j.limits.has_cone_limit = true;
-    j.limits.cone_angle = s.cone_angle;
-  }
-  if (s.twist_limit_enabled) {
-    j.limits.has_twist_limit = true;
-    j.limits.twist_min = s.twist_min;
-    j.limits.twist_max = s.twist_max;
-  }
-  return j;
-}
-
 // True when a core build message names a field set in an IKChainJoint (JointSettings; the core
 // spells them as those properties are named), not one that comes from the bones' poses.
 bool names_joint_setting(const char* message) {
@@ -161,6 +134,54 @@ glm::dquat rotation_of_basis(const glm::dmat3& basis) {
 bool has_rotation(const glm::dmat3& basis) {
   glm::dquat ignored;
   return orthonormal_rotation(basis, ignored);
+}
+
+// The core joint of one bone's settings. A disabled limit is not passed on (nor checked), and
+// neither is the twist axis when no limit of the ball joint uses it.
+JointDesc core_joint_of(const JointSettings& s) {
+  JointDesc j;
+  j.type = s.type;
+  if (s.type == JointType::kHinge) {
+    j.hinge_axis = s.hinge_axis_in_bone;
+    if (s.hinge_limit_enabled) {
+      j.limits.has_hinge_limit = true;
+      j.limits.hinge_min = s.hinge_min;
+      j.limits.hinge_max = s.hinge_max;
+    }
+    return j;
+  }
+  if (s.cone_limit_enabled || s.twist_limit_enabled) j.limits.twist_axis = s.twist_axis_in_bone;
+  if (s.cone_limit_enabled) {
+    j.limits.has_cone_limit = true;
+    j.limits.cone_angle = s.cone_angle;
+  }
+  if (s.twist_limit_enabled) {
+    j.limits.has_twist_limit = true;
+    j.limits.twist_min = s.twist_min;
+    j.limits.twist_max = s.twist_max;
+  }
+  return j;
+}
+
+void joint_params_from_rotation(JointType type, const glm::dquat& rest_rotation, const glm::dvec3& axis,
+                                const JointLimits& limits, const glm::dquat& local_rotation, double* p) {
+  const double len = glm::length(local_rotation);
+  // A zero or non-finite pose rotation: start from the rest rotation.
+  const glm::dquat joint_motion = (len > 1e-12 && std::isfinite(len))
+                                      ? glm::conjugate(rest_rotation) * (local_rotation / len)
+                                      : glm::dquat(1.0, 0.0, 0.0, 0.0);
+  if (type == JointType::kHinge) {
+    glm::dquat swing;
+    double angle = 0.0;
+    so3::swing_twist(joint_motion, axis, swing, angle);
+    p[0] = limits.has_hinge_limit ? clamp_hinge(angle, limits.hinge_min, limits.hinge_max) : angle;
+    return;
+  }
+  const glm::dvec3 r = so3::log(joint_motion);
+  p[0] = r.x;
+  p[1] = r.y;
+  p[2] = r.z;
+  if (limits.has_hinge_limit || limits.has_cone_limit || limits.has_twist_limit) project_joint_params(type, limits, p);
 }
 
 glm::dquat godot_slerp(const glm::dquat& from, const glm::dquat& to, double weight) {
@@ -297,7 +318,7 @@ Message SkeletonChain::build_from(const SkeletonChainDesc& desc) {
     if (b.joint.type != JointType::kBall && b.joint.type != JointType::kHinge)
       return Message::format("joint '%s': type (%d) must be JOINT_BALL (0) or JOINT_HINGE (1)", name,
                              int(b.joint.type));
-    JointDesc j = joint_desc(b.joint);
+    JointDesc j = core_joint_of(b.joint);
     j.rest_rotation = rotation_of_basis(b.rest_basis_in_parent);
     joints.push_back(j);
   }
@@ -405,28 +426,9 @@ Message SkeletonChain::scale_warning() const {
 
 void SkeletonChain::params_from_rotations(Span<const glm::dquat> local_rotations, double* params) const {
   const int n = std::min(joint_count_, local_rotations.size);
-  for (int i = 0; i < n; ++i) {
-    const glm::dquat& pose = local_rotations[i];
-    const double len = glm::length(pose);
-    // A zero or non-finite pose rotation: start from the rest rotation.
-    const glm::dquat joint_motion = (len > 1e-12 && std::isfinite(len))
-                                        ? glm::conjugate(chain_.rest_rotation(i)) * (pose / len)
-                                        : glm::dquat(1.0, 0.0, 0.0, 0.0);
-    const int o = chain_.dof_offset(i);
-    if (chain_.joint_type(i) == JointType::kHinge) {
-      glm::dquat swing;
-      double angle = 0.0;
-      so3::swing_twist(joint_motion, chain_.hinge_axis(i), swing, angle);
-      const JointLimits& l = chain_.limits(i);
-      params[o] = l.has_hinge_limit ? clamp_hinge(angle, l.hinge_min, l.hinge_max) : angle;
-    } else {
-      const glm::dvec3 r = so3::log(joint_motion);
-      params[o] = r.x;
-      params[o + 1] = r.y;
-      params[o + 2] = r.z;
-      project_joint_to_limits(chain_, i, params);
-    }
-  }
+  for (int i = 0; i < n; ++i)
+    joint_params_from_rotation(chain_.joint_type(i), chain_.rest_rotation(i), chain_.hinge_axis(i), chain_.limits(i),
+                               local_rotations[i], params + chain_.dof_offset(i));
 }
 
 bool SkeletonChain::rotations_from_params(const double* params, Span<glm::dquat> local_rotations) const {

@@ -101,6 +101,18 @@ glm::dquat rotation_of_basis(const glm::dmat3& basis);
 // scale on some axis) or not finite, so it has no rotation to pursue.
 bool has_rotation(const glm::dmat3& basis);
 
+// The core joint of one bone's settings (IKChainJoint's properties), offset and rest rotation
+// left for the caller. A disabled limit is not passed on (nor checked), and neither is the twist
+// axis when no limit of the ball joint uses it. Chains and trees (skeleton_tree.hpp) share it.
+JointDesc core_joint_of(const JointSettings& settings);
+
+// Warm start of one joint: its params (1 for a hinge, 3 for a ball) from the bone's local pose
+// rotation. Ball: log(conj(rest) * pose); hinge: the twist about `axis` (swing-twist
+// decomposition); both then projected onto the limits (a hinge to the nearer limit on the circle).
+// A zero or non-finite rotation counts as the rest rotation. Chains and trees share it.
+void joint_params_from_rotation(JointType type, const glm::dquat& rest_rotation, const glm::dvec3& axis,
+                                const JointLimits& limits, const glm::dquat& local_rotation, double* p);
+
 // Godot's Quaternion::slerp (shortest path; linear when the two are within 1e-5 of parallel),
 // normalized, as Transform3D::interpolate_with applies it.
 glm::dquat godot_slerp(const glm::dquat& from, const glm::dquat& to, double weight);

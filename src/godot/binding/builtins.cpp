@@ -267,6 +267,10 @@ Array& Array::operator=(const Array& other) {
   return *this;
 }
 Array::~Array() { t.array.dtor(opaque_); }
+void Array::push_back(const Variant& value) {
+  GDExtensionConstTypePtr args[1] = {value.ptr()};
+  t.builtin[int(gen::BuiltinMethod::Array_push_back)](opaque_, args, nullptr, 1);
+}
 int64_t Array::size() const {
   int64_t n = 0;
   t.builtin[int(gen::BuiltinMethod::Array_size)](const_cast<uint8_t*>(opaque_), nullptr, &n, 0);
@@ -315,6 +319,22 @@ Callable::~Callable() { t.callable.dtor(opaque_); }
 // ---- Variant ----
 Variant::Variant() { gde.variant_new_nil(opaque_); }
 Variant::Variant(const Variant& other) { gde.variant_new_copy(opaque_, other.opaque_); }
+Variant Variant::copy_of(GDExtensionConstVariantPtr engine_variant) {
+  Variant v;
+  if (engine_variant == nullptr) return v;
+  gde.variant_destroy(v.opaque_);
+  gde.variant_new_copy(v.opaque_, engine_variant);
+  return v;
+}
+Variant Variant::from_object(ObjectPtr object) {
+  Variant v;
+  if (object == nullptr) return v;
+  gde.variant_destroy(v.opaque_);
+  static GDExtensionVariantFromTypeConstructorFunc from_object = nullptr;
+  if (from_object == nullptr) from_object = gde.get_variant_from_type_constructor(GDEXTENSION_VARIANT_TYPE_OBJECT);
+  from_object(v.opaque_, &object);
+  return v;
+}
 Variant& Variant::operator=(const Variant& other) {
   if (this != &other) {
     gde.variant_destroy(opaque_);

@@ -115,6 +115,7 @@ class Array {
   Array& operator=(const Array& other);
   ~Array();
   int64_t size() const;
+  void push_back(const Variant& value);
   // The element's Variant (owned by the array); null when out of range.
   GDExtensionConstVariantPtr at(int64_t i) const;
   GDExtensionTypePtr ptr() { return opaque_; }
@@ -171,6 +172,11 @@ class Variant {
   explicit Variant(const Array& v);
   explicit Variant(const Vector3& v);
   explicit Variant(const Transform3D& v);
+
+  // A copy of an engine-owned Variant (an Array element): holds a reference to its object.
+  static Variant copy_of(GDExtensionConstVariantPtr engine_variant);
+  // An Object as a Variant (a RefCounted object gets its first or next reference).
+  static Variant from_object(ObjectPtr object);
 
   GDExtensionVariantType type() const;
   GDExtensionVariantPtr ptr() { return opaque_; }

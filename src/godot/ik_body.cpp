@@ -1,0 +1,871 @@
+#include "ik_body.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "binding/classes.hpp"
+#include "binding/log.hpp"
+#include "binding/math.hpp"
+#include "core/so3.hpp"
+#include "ik_body_effector.hpp"
+#include "ik_chain_joint.hpp"
+#include "property_report.hpp"
+
+namespace ikchain::godot {
+
+namespace hint = gdx::gen::PropertyHint;
+
+namespace {
+
+constexpr const char* kClass = "IKBody";
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct Names {
+  gdx::StringName root_bone{"root_bone"};
+  gdx::StringName bone_list_changed{"bone_list_changed"};
+  gdx::StringName rest_updated{"rest_updated"};
+  gdx::StringName skeleton_changed{"_skeleton_changed"};
+};
+Names* g_names = nullptr;
+
+const char* solver_constant(int64_t value) {
+  static constexpr const char* kNames[] = {"SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS",
+                                           "SOLVER_BFGS",     "SOLVER_FABRIK", "SOLVER_AUTO"};
+  return kNames[value];
+}
+static_assert(kSolverKindCount == IKBody::kSolverAuto, "IKBody.Solver values are the core's SolverKind values, then Auto");
+
+const char* reason_name(TerminationReason r) {
+  switch (r) {
+    case TerminationReason::kConverged: return "converged";
+    case TerminationReason::kMaxIterations: return "max_iterations";
+    case TerminationReason::kStalled: return "stalled";
+    case TerminationReason::kUnreachable: return "unreachable";
+    case TerminationReason::kInvalidInput: return "invalid_input";
+  }
+  return "invalid_input";
+}
+
+gdx::String text(const std::string& s) { return gdx::String(std::string_view(s)); }
+
+bool finite(const glm::dmat4& m) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 3; ++r)
+      if (!std::isfinite(m[c][r])) return false;
+  return true;
+}
+
+std::string effector_label(int index, const std::string& bone) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "effectors[%d]%s%s%s", index, bone.empty() ? "" : " ('", bone.c_str(),
+                bone.empty() ? "" : "')");
+  return buf;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- registration
+
+void IKBody::register_class(gdx::ClassRecord& record) {
+  g_names = new Names();
+  gdx::ClassBuilder<IKBody> b(record);
+  b.register_class();
+
+  b.method("set_root_bone", &IKBody::set_root_bone, {"bone_name"});
+  b.method("get_root_bone", &IKBody::get_root_bone);
+  b.method("set_floating_root", &IKBody::set_floating_root, {"enabled"});
+  b.method("is_floating_root", &IKBody::is_floating_root);
+  b.method("set_effectors", &IKBody::set_effectors, {"effectors"});
+  b.method("get_effectors", &IKBody::get_effectors, {}, {nullptr, "IKBodyEffector"});
+  b.method("set_joints", &IKBody::set_joints, {"joints"});
+  b.method("get_joints", &IKBody::get_joints, {}, {nullptr, "IKChainJoint"});
+  b.method("set_solver", &IKBody::set_solver, {"solver"});
+  b.method("get_solver", &IKBody::get_solver, {}, {"IKBody.Solver"});
+  b.method("set_max_iterations", &IKBody::set_max_iterations, {"iterations"});
+  b.method("get_max_iterations", &IKBody::get_max_iterations);
+  b.method("set_tolerance", &IKBody::set_tolerance, {"tolerance"});
+  b.method("get_tolerance", &IKBody::get_tolerance);
+  b.method("set_orientation_tolerance", &IKBody::set_orientation_tolerance, {"radians"});
+  b.method("get_orientation_tolerance", &IKBody::get_orientation_tolerance);
+  b.method("set_deterministic", &IKBody::set_deterministic, {"enabled"});
+  b.method("is_deterministic", &IKBody::is_deterministic);
+  b.method("get_last_result", &IKBody::get_last_result);
+  b.method("get_last_reason", &IKBody::get_last_reason);
+  b.method("is_last_usable", &IKBody::is_last_usable);
+  b.method("get_last_iterations", &IKBody::get_last_iterations);
+  b.method("get_last_usec", &IKBody::get_last_usec);
+  b.method("get_last_position_error", &IKBody::get_last_position_error);
+  b.method("get_last_orientation_error", &IKBody::get_last_orientation_error);
+  b.method("get_last_effector_position_error", &IKBody::get_last_effector_position_error, {"index"});
+  b.method("get_last_effector_rotation_error", &IKBody::get_last_effector_rotation_error, {"index"});
+  b.method("is_last_level_met", &IKBody::is_last_level_met, {"level"});
+  b.method("solve_now", &IKBody::solve_now);
+  b.method("get_body_bones", &IKBody::get_body_bones);
+  b.method("setup_humanoid", &IKBody::setup_humanoid);
+  b.method("_get_configuration_warnings", &IKBody::get_configuration_warnings);
+
+  // The solvers that take trees (the core's table, column `trees`), then Auto.
+  std::string solver_hint;
+  for (const SolverInfo& info : solver_table()) {
+    const int64_t value = int64_t(info.kind);
+    b.constant("Solver", solver_constant(value), value);
+    if (info.trees) solver_hint += std::string(info.display_name) + ":" + std::to_string(value) + ",";
+  }
+  b.constant("Solver", solver_constant(kSolverAuto), kSolverAuto);
+  solver_hint += "Auto:" + std::to_string(kSolverAuto);
+
+  b.property({"root_bone", GDEXTENSION_VARIANT_TYPE_STRING, hint::PROPERTY_HINT_ENUM, ""}, "set_root_bone",
+             "get_root_bone");
+  b.property({"floating_root", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_floating_root", "is_floating_root");
+  b.property({"effectors", GDEXTENSION_VARIANT_TYPE_ARRAY, hint::PROPERTY_HINT_TYPE_STRING, "24/17:IKBodyEffector"},
+             "set_effectors", "get_effectors");
+  b.property({"joints", GDEXTENSION_VARIANT_TYPE_ARRAY, hint::PROPERTY_HINT_TYPE_STRING, "24/17:IKChainJoint"},
+             "set_joints", "get_joints");
+  b.group("Solver", "");
+  b.property({"solver", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_ENUM, solver_hint.c_str()}, "set_solver",
+             "get_solver");
+  b.property({"max_iterations", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_RANGE, "1,1000,1"},
+             "set_max_iterations", "get_max_iterations");
+  b.property({"tolerance", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
+              "0.000001,1,0.000001,exp,suffix:m"},
+             "set_tolerance", "get_tolerance");
+  b.property({"orientation_tolerance", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
+              "0.000001,1,0.000001,exp,suffix:rad"},
+             "set_orientation_tolerance", "get_orientation_tolerance");
+  b.property({"deterministic", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_deterministic", "is_deterministic");
+
+  b.virtual_method("_process_modification_with_delta",
+                   gdx::gen::kVirtualHash_SkeletonModifier3D__process_modification_with_delta,
+                   &IKBody::process_modification);
+  b.virtual_method("_get_configuration_warnings", gdx::gen::kVirtualHash_Node__get_configuration_warnings,
+                   &IKBody::get_configuration_warnings);
+  b.virtual_method("_skeleton_changed", gdx::gen::kVirtualHash_SkeletonModifier3D__skeleton_changed,
+                   &IKBody::skeleton_changed);
+}
+
+void IKBody::unregister_class() {
+  delete g_names;
+  g_names = nullptr;
+}
+
+IKBody::IKBody(gdx::ObjectPtr owner) : owner_(owner) {
+  options_.max_iterations = int(max_iterations_);
+  options_.position_tolerance = tolerance_;
+  options_.orientation_tolerance = orientation_tolerance_;
+  options_.warm_start = true;  // the start is the animated pose (or the last solve), never the rest pose
+}
+
+// ---------------------------------------------------------------- properties
+
+void IKBody::mark_dirty() {
+  dirty_ = true;
+  gdx::Node::unchecked(owner_).update_configuration_warnings();
+}
+
+void IKBody::set_root_bone(const gdx::String& name) {
+  std::string v = name.utf8();
+  if (v == root_bone_) return;
+  root_bone_ = std::move(v);
+  mark_dirty();
+}
+gdx::String IKBody::get_root_bone() const { return text(root_bone_); }
+
+void IKBody::set_floating_root(bool on) {
+  if (on == floating_root_) return;
+  floating_root_ = on;
+  mark_dirty();
+}
+
+void IKBody::set_effectors(const gdx::Array& effectors) {
+  effectors_ = effectors;
+  mark_dirty();
+}
+
+void IKBody::set_joints(const gdx::Array& joints) {
+  joints_ = joints;
+  mark_dirty();
+}
+
+void IKBody::set_solver(int64_t solver) {
+  const int64_t used = std::clamp<int64_t>(solver, 0, kSolverAuto);
+  if (used != solver) report_clamped(kClass, "solver", "0..6 (IKBody.SOLVER_*)", double(solver), double(used));
+  solver_ = used;
+  gdx::Node::unchecked(owner_).update_configuration_warnings();
+}
+
+void IKBody::set_max_iterations(int64_t n) {
+  max_iterations_ = std::clamp<int64_t>(n, 1, 1000);
+  if (max_iterations_ != n) report_clamped(kClass, "max_iterations", "1..1000", double(n), double(max_iterations_));
+  options_.max_iterations = int(max_iterations_);
+}
+
+void IKBody::set_tolerance(double meters) {
+  const double used = std::isnan(meters) ? tolerance_ : std::clamp(meters, 1e-6, 1.0);
+  if (used != meters) report_clamped(kClass, "tolerance", "[1e-06, 1] m", meters, used);
+  tolerance_ = used;
+  options_.position_tolerance = tolerance_;
+}
+
+void IKBody::set_orientation_tolerance(double radians) {
+  const double used = std::isnan(radians) ? orientation_tolerance_ : std::clamp(radians, 1e-6, 1.0);
+  if (used != radians) report_clamped(kClass, "orientation_tolerance", "[1e-06, 1] rad", radians, used);
+  orientation_tolerance_ = used;
+  options_.orientation_tolerance = orientation_tolerance_;
+}
+
+void IKBody::set_deterministic(bool on) { deterministic_ = on; }
+
+// ---------------------------------------------------------------- results
+
+gdx::String IKBody::get_last_reason() const {
+  return gdx::String(has_result_ ? reason_name(last_.summary.reason) : "not_run");
+}
+bool IKBody::is_last_usable() const { return has_result_ && last_.usable(); }
+double IKBody::get_last_position_error() const { return last_.summary.final_position_error; }
+double IKBody::get_last_orientation_error() const { return last_.summary.final_orientation_error; }
+
+double IKBody::get_last_effector_position_error(int64_t index) const {
+  if (index < 0 || index >= int64_t(effector_position_error_.size())) return kNaN;
+  return effector_position_error_[size_t(index)];
+}
+double IKBody::get_last_effector_rotation_error(int64_t index) const {
+  if (index < 0 || index >= int64_t(effector_rotation_error_.size())) return kNaN;
+  return effector_rotation_error_[size_t(index)];
+}
+bool IKBody::is_last_level_met(int64_t level) const {
+  if (!is_last_usable() || level < 1 || level > kMaxPriorityLevels) return false;
+  return last_.level_met[size_t(level - 1)];
+}
+
+gdx::Dictionary IKBody::get_last_result() const {
+  gdx::Dictionary d;
+  auto put = [&d](const char* key, const gdx::Variant& value) { d.set(gdx::Variant(key), value); };
+  put("reason", gdx::Variant(get_last_reason()));
+  put("usable", gdx::Variant(is_last_usable()));
+  put("iterations", gdx::Variant(get_last_iterations()));
+  put("usec", gdx::Variant(get_last_usec()));
+  put("position_error", gdx::Variant(get_last_position_error()));
+  put("orientation_error", gdx::Variant(get_last_orientation_error()));
+  put("message", gdx::Variant(last_.summary.message.c_str()));
+  gdx::Array levels;
+  for (int l = 1; l <= kMaxPriorityLevels; ++l) levels.push_back(gdx::Variant(is_last_level_met(l)));
+  put("levels_met", gdx::Variant(levels));
+  gdx::Array position_errors, rotation_errors;
+  for (size_t i = 0; i < effector_position_error_.size(); ++i) {
+    position_errors.push_back(gdx::Variant(effector_position_error_[i]));
+    rotation_errors.push_back(gdx::Variant(effector_rotation_error_[i]));
+  }
+  put("effector_position_errors", gdx::Variant(position_errors));
+  put("effector_rotation_errors", gdx::Variant(rotation_errors));
+  return d;
+}
+
+gdx::Dictionary IKBody::solve_now() {
+  const gdx::Skeleton3D skel = skeleton();
+  if (!skel)
+    set_invalid_result("IKBody: the parent is not a Skeleton3D; make IKBody a child of a Skeleton3D.");
+  else
+    run(skel);
+  return get_last_result();
+}
+
+gdx::PackedInt32Array IKBody::get_body_bones() {
+  const gdx::Skeleton3D skel = skeleton();
+  if (skel && needs_rebuild(skel)) rebuild(skel);
+  gdx::PackedInt32Array out;
+  if (!body_ok_) return out;
+  for (int i = 0; i < mapping_.bone_count(); ++i) out.push_back(mapping_.skeleton_bone(i));
+  return out;
+}
+
+// ---------------------------------------------------------------- editor
+
+bool IKBody::validate_property(GDExtensionPropertyInfo& property) {
+  if (g_names == nullptr || !g_names->root_bone.equals(property.name)) return false;
+  const gdx::Skeleton3D skel = skeleton();
+  if (!skel) {
+    property.hint = uint32_t(hint::PROPERTY_HINT_NONE);
+    return true;
+  }
+  const gdx::String names(skel.get_concatenated_bone_names());
+  property.hint = uint32_t(hint::PROPERTY_HINT_ENUM);
+  gdx::String::assign_to(property.hint_string, names);
+  return true;
+}
+
+gdx::Skeleton3D IKBody::skeleton() const {
+  const gdx::SkeletonModifier3D self = gdx::SkeletonModifier3D::unchecked(owner_);
+  gdx::Skeleton3D skel = self.get_skeleton();
+  if (!skel) skel = gdx::Skeleton3D::cast(self.get_parent());
+  return skel;
+}
+
+void IKBody::watch_skeleton(const gdx::Skeleton3D& skel) {
+  if (!skel || g_names == nullptr) return;
+  const gdx::Callable callback(owner_, g_names->skeleton_changed);
+  for (const gdx::StringName* signal : {&g_names->bone_list_changed, &g_names->rest_updated})
+    if (!skel.is_connected(*signal, callback)) skel.connect(*signal, callback);
+}
+
+void IKBody::skeleton_changed() {
+  dirty_ = true;
+  gdx::Object(owner_).notify_property_list_changed();
+}
+
+void IKBody::notification(int32_t what) {
+  if (what == gdx::gen::kNode_NOTIFICATION_ENTER_TREE) gdx::Node::unchecked(owner_).update_configuration_warnings();
+}
+
+// ---------------------------------------------------------------- configuration
+
+void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& problems, SkeletonTreeDesc* desc,
+                       std::vector<Slot>* slots, std::vector<gdx::Variant>* held) const {
+  if (!skel) {
+    problems.push_back({"parent", "IKBody: the parent is not a Skeleton3D; make IKBody a child of a Skeleton3D."});
+    return;
+  }
+  const int bone_count = int(skel.get_bone_count());
+  int root = -1;
+  if (root_bone_.empty()) {
+    problems.push_back({"root_bone", "IKBody: root_bone is empty; pick the bone the body hangs from (the hips), or "
+                                     "call setup_humanoid()."});
+  } else {
+    root = int(skel.find_bone(text(root_bone_)));
+    if (root < 0)
+      problems.push_back({"root_bone", "IKBody: root_bone '" + root_bone_ +
+                                           "' is not a bone of the parent Skeleton3D; pick one from the list."});
+  }
+  if (solver_ != kSolverAuto && !solver_info(SolverKind(solver_)).trees)
+    problems.push_back({"solver", std::string("IKBody: solver ") + solver_info(SolverKind(solver_)).display_name +
+                                      " does not solve trees; pick Auto or a solver the list offers."});
+
+  std::vector<int> parents(size_t(bone_count), -1);
+  for (int i = 0; i < bone_count; ++i) parents[size_t(i)] = int(skel.get_bone_parent(i));
+
+  // Effectors: each usable one becomes a slot; each problem names the element and the fix.
+  std::vector<Slot> found;
+  std::vector<int> effector_bones;
+  const int64_t count = effectors_.size();
+  for (int64_t i = 0; i < count; ++i) {
+    gdx::ObjectPtr object = nullptr;
+    gdx::variant_to(effectors_.at(i), object);
+    IKBodyEffector* e = IKBodyEffector::from_object(object);
+    const std::string where = effector_label(int(i), e ? e->bone_name() : std::string());
+    if (e == nullptr) {
+      problems.push_back({"effectors", "IKBody: " + where + " is empty or not an IKBodyEffector; assign an "
+                                                             "IKBodyEffector or remove the element.",
+                          false});
+      continue;
+    }
+    if (!e->is_enabled()) continue;
+    if (e->bone_name().empty()) {
+      problems.push_back({"effectors", "IKBody: " + where + " has no bone_name; set it to a bone under root_bone.", false});
+      continue;
+    }
+    const int bone = int(skel.find_bone(text(e->bone_name())));
+    if (bone < 0) {
+      problems.push_back({"effectors", "IKBody: " + where + ": bone '" + e->bone_name() +
+                                           "' is not in the skeleton; set bone_name to one of its bones.",
+                          false});
+      continue;
+    }
+    bool duplicate = false;
+    for (const Slot& s : found) {
+      if (s.bone != e->bone_name()) continue;
+      problems.push_back({"effectors", "IKBody: " + where + " names the same bone as effectors[" +
+                                           std::to_string(s.index) + "]; only the first is used: remove one, or "
+                                                                     "disable it.",
+                          false});
+      duplicate = true;
+      break;
+    }
+    if (duplicate) continue;
+    if (root >= 0) {
+      std::vector<int> ignored;
+      int outside = -1;
+      const int one[1] = {bone};
+      supporting_bones(Span<const int>(parents), root, Span<const int>(one, 1), ignored, outside);
+      if (outside >= 0) {
+        problems.push_back({"effectors", "IKBody: " + where + ": bone '" + e->bone_name() +
+                                             "' is not under root_bone '" + root_bone_ +
+                                             "', so the body cannot move it; pick a bone under root_bone or a "
+                                             "root_bone above it.",
+                            false});
+        continue;
+      }
+    }
+    if (e->get_priority() < IKBodyEffector::kMinPriority || e->get_priority() > IKBodyEffector::kMaxPriority) {
+      const int64_t used = std::clamp<int64_t>(e->get_priority(), IKBodyEffector::kMinPriority, IKBodyEffector::kMaxPriority);
+      problems.push_back({"effectors", "IKBody: " + where + ": priority " + std::to_string(e->get_priority()) +
+                                           " is out of range 1..4 (1 = highest); it is used as " + std::to_string(used) +
+                                           ". Set priority between 1 and 4.",
+                          false});
+    }
+    if (!(e->get_position_weight() > 0.0) && !(e->get_rotation_weight() > 0.0))
+      problems.push_back({"effectors", "IKBody: " + where + ": position_weight and rotation_weight are both 0, so it "
+                                                            "pursues nothing; set one of them above 0, or disable it.",
+                          false});
+    if (!e->is_using_target_transform() && e->get_target().is_empty())
+      problems.push_back({"effectors", "IKBody: " + where + " has no target; set target to a Node3D (or turn on "
+                                                            "use_target_transform). It is skipped until then.",
+                          false});
+    Slot s;
+    s.effector = e;
+    s.index = int(i);
+    s.bone = e->bone_name();
+    s.core_effector = int(found.size());
+    found.push_back(s);
+    effector_bones.push_back(bone);
+    if (held) held->push_back(gdx::Variant::copy_of(effectors_.at(i)));
+  }
+  if (root < 0) return;
+  if (found.empty()) {
+    problems.push_back({"effectors", "IKBody: no enabled effector under root_bone; add an IKBodyEffector to "
+                                     "effectors (or call setup_humanoid())."});
+    return;
+  }
+
+  std::vector<int> order;
+  int outside = -1;
+  supporting_bones(Span<const int>(parents), root, Span<const int>(effector_bones), order, outside);
+  if (order.empty()) return;  // (every effector was checked above)
+
+  // Joints: each IKChainJoint names its bone.
+  std::vector<const IKChainJoint*> joint_of(size_t(bone_count), nullptr);
+  for (int64_t i = 0; i < joints_.size(); ++i) {
+    gdx::ObjectPtr object = nullptr;
+    gdx::variant_to(joints_.at(i), object);
+    const IKChainJoint* j = IKChainJoint::from_object(object);
+    const std::string where = "joints[" + std::to_string(i) + "]";
+    if (j == nullptr) {
+      problems.push_back({"joints", "IKBody: " + where + " is empty or not an IKChainJoint; assign one or remove the "
+                                                         "element.",
+                          false});
+      continue;
+    }
+    const int bone = int(skel.find_bone(text(j->bone_name())));
+    if (bone < 0) {
+      problems.push_back({"joints", "IKBody: " + where + ": bone '" + j->bone_name() +
+                                        "' is not in the skeleton; set bone_name to one of its bones.",
+                          false});
+      continue;
+    }
+    if (joint_of[size_t(bone)] != nullptr) {
+      problems.push_back({"joints", "IKBody: " + where + " names bone '" + j->bone_name() +
+                                        "' again; only the first is used: remove one.",
+                          false});
+      continue;
+    }
+    joint_of[size_t(bone)] = j;
+  }
+  if (desc == nullptr) return;
+  desc->floating_root = floating_root_;
+  desc->bones.clear();
+  std::vector<int> index_of(size_t(bone_count), -1);
+  for (size_t k = 0; k < order.size(); ++k) {
+    const int b = order[k];
+    index_of[size_t(b)] = int(k);
+    TreeBoneDesc bone;
+    bone.name = skel.get_bone_name(b).utf8();
+    bone.skeleton_bone = b;
+    bone.parent = k == 0 ? -1 : index_of[size_t(parents[size_t(b)])];
+    bone.rest_basis_in_parent = glm::dmat3(gdx::to_glm(skel.get_bone_rest(b)));
+    bone.pose.position = gdx::to_glm(skel.get_bone_pose_position(b));
+    bone.pose.rotation = gdx::to_glm(skel.get_bone_pose_rotation(b));
+    bone.pose.scale = gdx::to_glm(skel.get_bone_pose_scale(b));
+    if (joint_of[size_t(b)] != nullptr) bone.joint = joint_of[size_t(b)]->settings();
+    desc->bones.push_back(bone);
+  }
+  desc->effector_bones.clear();
+  for (int b : effector_bones) desc->effector_bones.push_back(index_of[size_t(b)]);
+  if (slots) *slots = found;
+}
+
+gdx::PackedStringArray IKBody::get_configuration_warnings() const {
+  std::vector<Problem> problems;
+  SkeletonTreeDesc desc;
+  configure(skeleton(), problems, &desc, nullptr, nullptr);
+  bool fatal = false;
+  for (const Problem& p : problems) fatal = fatal || p.fatal;
+  if (!fatal && !desc.bones.empty()) {
+    SkeletonTree check;
+    const Message built = check.build(desc);
+    if (!built.empty()) problems.push_back({"joints", std::string("IKBody: cannot build the body: ") + built.c_str()});
+    else if (Message w = check.scale_warning(); !w.empty())
+      problems.push_back({"root_bone", std::string("IKBody: ") + w.c_str(), false});
+  }
+  for (const Problem& p : body_problems_) {
+    bool seen = false;
+    for (const Problem& q : problems) seen = seen || q.message == p.message;
+    if (!seen) problems.push_back(p);
+  }
+  gdx::PackedStringArray out;
+  for (const Problem& p : problems) out.push_back(text(p.message));
+  return out;
+}
+
+// ---------------------------------------------------------------- building
+
+bool IKBody::needs_rebuild(const gdx::Skeleton3D& skel) const {
+  return dirty_ || skel.instance_id() != built_skeleton_id_ || skel.get_version() != built_skeleton_version_ ||
+         IKChainJoint::generation() != built_settings_generation_ || effectors_.size() != effector_array_size_;
+}
+
+void IKBody::rebuild(const gdx::Skeleton3D& skel) {
+  dirty_ = false;
+  const bool was_ok = body_ok_;
+  body_ok_ = false;
+  body_problems_.clear();
+  slots_.clear();
+  held_.clear();
+  if (skel && skel.instance_id() != built_skeleton_id_) watch_skeleton(skel);
+  built_skeleton_id_ = skel.instance_id();
+  built_skeleton_version_ = skel ? skel.get_version() : -1;
+  built_settings_generation_ = IKChainJoint::generation();
+  effector_array_size_ = int(effectors_.size());
+  effector_position_error_.assign(size_t(effector_array_size_), kNaN);
+  effector_rotation_error_.assign(size_t(effector_array_size_), kNaN);
+
+  SkeletonTreeDesc desc;
+  std::vector<Problem> problems;
+  configure(skel, problems, &desc, &slots_, &held_);
+  for (const Problem& p : problems)
+    if (p.fatal) body_problems_.push_back(p);
+  if (body_problems_.empty() && !desc.bones.empty()) {
+    const Message built = mapping_.build(desc);
+    if (!built.empty()) body_problems_.push_back({"joints", std::string("IKBody: cannot build the body: ") + built.c_str()});
+  }
+  if (body_problems_.empty() && mapping_.valid()) {
+    base_bone_ = int(skel.get_bone_parent(mapping_.skeleton_bone(0)));
+    const int n = mapping_.bone_count();
+    const int dofs = mapping_.tree().dof_count();
+    const int max_goals = 2 * int(slots_.size());
+    workspace_.reset(mapping_.tree(), max_goals);
+    goals_.assign(size_t(max_goals), TreeGoal());
+    goal_slot_.assign(size_t(max_goals), 0);
+    goal_rotation_.assign(size_t(max_goals), 0);
+    bone_poses_.assign(size_t(n), BonePose());
+    rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
+    params_ = Eigen::VectorXd::Zero(dofs);
+    anim_params_ = Eigen::VectorXd::Zero(dofs);
+    previous_anim_params_ = Eigen::VectorXd::Constant(dofs, kNaN);
+    last_params_ = Eigen::VectorXd::Zero(dofs);
+    posture_stiffness_.assign(size_t(dofs), kPostureStiffness);
+    have_last_ = false;
+    body_ok_ = true;
+  } else {
+    slots_.clear();
+    held_.clear();
+  }
+  if (body_ok_ != was_ok) gdx::Node::unchecked(owner_).update_configuration_warnings();
+}
+
+SolverKind IKBody::resolved_solver() const {
+  // Auto: damped least squares, the coupled solver with priority levels.
+  return solver_ == kSolverAuto ? SolverKind::kDLS : SolverKind(solver_);
+}
+
+// ---------------------------------------------------------------- solving
+
+void IKBody::report_runtime(const std::string& message) {
+  ++reports_this_frame_;
+  for (const std::string& r : runtime_reported_)
+    if (r == message) return;
+  gdx::print_error(message.c_str(), "IKBody::_process_modification_with_delta", __FILE__, __LINE__);
+  runtime_reported_.push_back(message);
+}
+
+void IKBody::set_invalid_result(const char* message) {
+  has_result_ = true;
+  last_ = TreeSolveResult();
+  last_.summary.reason = TerminationReason::kInvalidInput;
+  last_.summary.message = Message::format("%s", message);
+  std::fill(effector_position_error_.begin(), effector_position_error_.end(), kNaN);
+  std::fill(effector_rotation_error_.begin(), effector_rotation_error_.end(), kNaN);
+}
+
+void IKBody::process_modification(double /*delta*/) {
+  const gdx::Skeleton3D skel = skeleton();
+  if (!skel) {
+    set_invalid_result("IKBody: the parent is not a Skeleton3D.");
+    return;
+  }
+  run(skel);
+}
+
+bool IKBody::run(const gdx::Skeleton3D& skel) {
+  if (needs_rebuild(skel)) rebuild(skel);  // allocates, but only when something changed
+  // A problem is printed once when it starts, not every frame; again after a frame without any.
+  if (reports_this_frame_ == 0) runtime_reported_.clear();
+  reports_this_frame_ = 0;
+  if (!body_ok_) {
+    set_invalid_result(body_problems_.empty() ? "IKBody: the body is not configured."
+                                              : body_problems_.front().message.c_str());
+    return false;
+  }
+  // The incoming pose: the animation's (Skeleton3D restores it before the modifiers run).
+  const int n = mapping_.bone_count();
+  for (int i = 0; i < n; ++i) {
+    const int bone = mapping_.skeleton_bone(i);
+    BonePose& p = bone_poses_[size_t(i)];
+    p.position = gdx::to_glm(skel.get_bone_pose_position(bone));
+    p.rotation = gdx::to_glm(skel.get_bone_pose_rotation(bone));
+    p.scale = gdx::to_glm(skel.get_bone_pose_scale(bone));
+  }
+  const PoseUpdate update = mapping_.update_pose(bone_poses_);
+  if (!update.error.empty()) {
+    report_runtime(std::string("IKBody: ") + update.error.c_str() + "; the animated pose is kept this frame.");
+    set_invalid_result(update.error.c_str());
+    return false;
+  }
+  if (update.shape_changed) workspace_.reset(mapping_.tree(), int(goals_.size()));  // same sizes: no reallocation
+
+  mapping_.params_from_pose(anim_params_.data());
+  // Warm start: the animated pose; while it stays the same (no animation playing), the last
+  // solution, which tracks moving targets smoothly. `deterministic`: always the animated pose,
+  // so the output depends on this frame's inputs alone.
+  const bool animation_still = anim_params_ == previous_anim_params_;
+  params_ = (!deterministic_ && have_last_ && animation_still) ? last_params_ : anim_params_;
+  previous_anim_params_ = anim_params_;
+
+  const glm::dmat4 base_bone = base_bone_ >= 0 ? gdx::to_glm(skel.get_bone_global_pose(base_bone_)) : glm::dmat4(1.0);
+  BaseFrame base;
+  if (!BaseFrame::make(gdx::to_glm(skel.get_global_transform()), base_bone, base)) {
+    const char* bad = "IKBody: the skeleton's global transform (or the root bone's parent pose) is not invertible: a "
+                      "zero scale? The animated pose is kept this frame.";
+    report_runtime(bad);
+    set_invalid_result(bad);
+    return false;
+  }
+
+  // The animated effector poses: what an effector with influence < 1 blends from.
+  const Tree& tree = mapping_.tree();
+  tree_forward_kinematics(tree, anim_params_.data(), workspace_);
+  const gdx::Node self = gdx::Node::unchecked(owner_);
+  int goal_count = 0;
+  std::fill(effector_position_error_.begin(), effector_position_error_.end(), kNaN);
+  std::fill(effector_rotation_error_.begin(), effector_rotation_error_.end(), kNaN);
+  for (int s = 0; s < int(slots_.size()); ++s) {
+    const Slot& slot = slots_[size_t(s)];
+    const IKBodyEffector& e = *slot.effector;
+    const double wp = e.get_position_weight(), wr = e.get_rotation_weight();
+    if (!(wp > 0.0) && !(wr > 0.0)) continue;  // a configuration warning says so
+    gdx::Transform3D target_global = e.get_target_transform();
+    if (!e.is_using_target_transform()) {
+      if (e.get_target().is_empty()) continue;  // a configuration warning says so
+      const gdx::Node3D node = gdx::Node3D::cast(self.get_node_or_null(e.get_target()));
+      if (!node || !node.is_inside_tree()) {
+        report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
+                       ": target does not point to a Node3D in the scene tree (freed or moved?); the effector "
+                       "follows the animation until it is back. Set its target to a Node3D.");
+        continue;
+      }
+      target_global = node.get_global_transform();
+    }
+    const glm::dmat4 target_m = gdx::to_glm(target_global);
+    if (!finite(target_m)) {
+      report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
+                     ": the target's transform is not finite (NaN or inf); the effector follows the animation "
+                     "until it is finite again.");
+      continue;
+    }
+    const double influence = e.get_influence();
+    const int level = int(std::clamp<int64_t>(e.get_priority(), IKBodyEffector::kMinPriority, IKBodyEffector::kMaxPriority));
+    if (wp > 0.0) {
+      const glm::dvec3 animated = tree_effector_position(tree, workspace_, slot.core_effector);
+      const glm::dvec3 target = mapping_.point_in_tree(base.point_in_base(glm::dvec3(target_m[3])));
+      const glm::dvec3 goal = influence >= 1.0 ? target : glm::mix(animated, target, influence);
+      if (!within_magnitude(goal)) {
+        report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
+                       ": the target is absurdly far (beyond 1e50 m); the effector follows the animation.");
+        continue;
+      }
+      goals_[size_t(goal_count)] = {Goal::position(goal, slot.core_effector, wp), level};
+      goal_slot_[size_t(goal_count)] = s;
+      goal_rotation_[size_t(goal_count)] = 0;
+      ++goal_count;
+    }
+    if (wr > 0.0 && has_rotation(glm::dmat3(target_m))) {
+      const glm::dquat animated = tree_effector_orientation(tree, workspace_, slot.core_effector);
+      const glm::dquat target = base.rotation_in_base(target_m);
+      const glm::dquat goal = influence >= 1.0 ? target : godot_slerp(animated, target, influence);
+      // A radian counts like the effector's reach from the root in metres (rotation_weight 1).
+      const double length = std::max(tree.reach_from_root(slot.core_effector), 1e-3);
+      goals_[size_t(goal_count)] = {Goal::orientation(goal, slot.core_effector, wr * length * length), level};
+      goal_slot_[size_t(goal_count)] = s;
+      goal_rotation_[size_t(goal_count)] = 1;
+      ++goal_count;
+    }
+  }
+  if (goal_count == 0) {
+    set_invalid_result("IKBody: no effector has a usable target this frame; the animated pose is kept.");
+    return false;
+  }
+
+  TreeProblem problem;
+  problem.goals = Span<const TreeGoal>(goals_.data(), goal_count);
+  problem.posture = Span<const double>(anim_params_.data(), int(anim_params_.size()));
+  problem.posture_stiffness = Span<const double>(posture_stiffness_.data(), int(posture_stiffness_.size()));
+  last_ = solve_tree(resolved_solver(), tree, problem, options_, workspace_, params_);
+  has_result_ = true;
+  last_goal_count_ = goal_count;
+  if (!last_.usable()) {
+    report_runtime(std::string("IKBody: the solver refused the frame: ") + last_.summary.message.c_str() +
+                   "; the animated pose is kept.");
+    have_last_ = false;
+    return false;
+  }
+  glm::dvec3 root_position(0.0);
+  if (!mapping_.pose_from_params(params_.data(), rotations_, root_position)) {
+    const char* bad = "IKBody: the solver produced a non-finite pose; the animated pose is kept.";
+    report_runtime(bad);
+    set_invalid_result(bad);
+    have_last_ = false;
+    return false;
+  }
+  for (int i = 0; i < n; ++i) skel.set_bone_pose_rotation(mapping_.skeleton_bone(i), gdx::from_glm(rotations_[size_t(i)]));
+  if (mapping_.floating_root()) skel.set_bone_pose_position(mapping_.skeleton_bone(0), gdx::from_glm(root_position));
+  last_params_ = params_;
+  have_last_ = true;
+  for (int g = 0; g < goal_count; ++g) {
+    const int index = slots_[size_t(goal_slot_[size_t(g)])].index;
+    (goal_rotation_[size_t(g)] ? effector_rotation_error_ : effector_position_error_)[size_t(index)] = last_.goal_error[size_t(g)];
+  }
+  return true;
+}
+
+}  // namespace ikchain::godot
+
+// ---------------------------------------------------------------- humanoid set-up
+
+namespace ikchain::godot {
+
+namespace {
+
+constexpr double kDeg = so3::kPi / 180.0;
+
+// The bones setup_humanoid() uses: Godot's SkeletonProfileHumanoid names.
+constexpr const char* kHumanoidBones[] = {
+    "Hips",         "Spine",        "Chest",        "UpperChest",    "Neck",          "Head",
+    "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",     "RightUpperLeg", "RightLowerLeg", "RightFoot",
+    "LeftShoulder", "LeftUpperArm", "LeftLowerArm", "LeftHand",      "RightShoulder", "RightUpperArm",
+    "RightLowerArm", "RightHand"};
+
+// A new instance of one of our resource classes, held by the returned Variant.
+gdx::Variant new_resource(const char* class_name, gdx::ObjectPtr& object) {
+  const gdx::StringName name{std::string_view(class_name)};
+  object = gdx::gde.classdb_construct_object2(name.ptr());
+  return gdx::Variant::from_object(object);
+}
+
+// A bone's rest in skeleton space (the rests composed up its parents).
+glm::dmat4 global_rest(const gdx::Skeleton3D& skel, int bone) {
+  glm::dmat4 m(1.0);
+  const int64_t count = skel.get_bone_count();
+  for (int64_t steps = 0; bone >= 0 && steps <= count; ++steps) {
+    m = gdx::to_glm(skel.get_bone_rest(bone)) * m;
+    bone = int(skel.get_bone_parent(bone));
+  }
+  return m;
+}
+
+}  // namespace
+
+bool IKBody::setup_humanoid() {
+  const gdx::Skeleton3D skel = skeleton();
+  if (!skel) {
+    IKCHAIN_PRINT_ERROR("IKBody.setup_humanoid(): the parent is not a Skeleton3D; make IKBody a child of a Skeleton3D "
+                        "that uses Godot's humanoid bone names (SkeletonProfileHumanoid). Nothing was changed.");
+    return false;
+  }
+  std::string missing;
+  for (const char* bone : kHumanoidBones)
+    if (skel.find_bone(gdx::String(bone)) < 0) missing += std::string(missing.empty() ? "" : ", ") + bone;
+  if (!missing.empty()) {
+    const std::string message =
+        "IKBody.setup_humanoid(): the skeleton lacks the humanoid bones " + missing +
+        "; it needs Godot's SkeletonProfileHumanoid names (retarget the model on import with a BoneMap). Nothing "
+        "was changed.";
+    IKCHAIN_PRINT_ERROR(message.c_str());
+    return false;
+  }
+  auto bone_of = [&](const char* name) { return int(skel.find_bone(gdx::String(name))); };
+
+  // Effectors: contacts at level 1 (the hips only softly), hands at 2, the head's look at 3.
+  struct EffectorSpec {
+    const char* bone;
+    int64_t priority;
+    double position_weight, rotation_weight;
+  };
+  constexpr EffectorSpec kEffectors[] = {{"Hips", 1, 0.1, 0.1},     {"LeftFoot", 1, 1.0, 1.0},
+                                         {"RightFoot", 1, 1.0, 1.0}, {"LeftHand", 2, 1.0, 0.0},
+                                         {"RightHand", 2, 1.0, 0.0}, {"Head", 3, 0.0, 1.0}};
+  gdx::Array effectors;
+  for (const EffectorSpec& spec : kEffectors) {
+    gdx::ObjectPtr object = nullptr;
+    const gdx::Variant held = new_resource("IKBodyEffector", object);
+    IKBodyEffector* e = IKBodyEffector::from_object(object);
+    if (e == nullptr) return false;
+    e->set_bone_name(gdx::String(spec.bone));
+    e->set_priority(spec.priority);
+    e->set_position_weight(spec.position_weight);
+    e->set_rotation_weight(spec.rotation_weight);
+    effectors.push_back(held);
+  }
+
+  // Joints: knees and elbows as hinges with human ranges, bending the way the rest pose says;
+  // spine, chest and neck with cones.
+  gdx::Array joints;
+  auto add_hinge = [&](const char* bone, const char* child, bool bends_forward) {
+    const glm::dmat4 rest = global_rest(skel, bone_of(bone));
+    const glm::dvec3 axis_in_skeleton = glm::normalize(glm::dvec3(rest[0]));  // the bone's +X
+    const glm::dvec3 child_in_bone = gdx::to_glm(skel.get_bone_rest(bone_of(child)).origin);
+    const glm::dvec3 along = glm::dmat3(rest) * child_in_bone;
+    // +X turns the child toward axis x along; the character faces +Z: knees bend it back, elbows forward.
+    const double forward = glm::cross(axis_in_skeleton, along).z;
+    const double sign = (forward > 0.0) == bends_forward ? 1.0 : -1.0;
+    gdx::ObjectPtr object = nullptr;
+    const gdx::Variant held = new_resource("IKChainJoint", object);
+    IKChainJoint* j = gdx::instance_of<IKChainJoint>(object, gdx::String("IKChainJoint"));
+    if (j == nullptr) return;
+    j->set_bone_name(gdx::String(bone));
+    j->set_type(IKChainJoint::JOINT_HINGE);
+    j->set_hinge_axis(gdx::from_glm(glm::dvec3(sign, 0.0, 0.0)));
+    j->set_hinge_limit_enabled(true);
+    j->set_hinge_min(0.0);
+    j->set_hinge_max(150.0 * kDeg);
+    joints.push_back(held);
+  };
+  auto add_cone = [&](const char* bone, double cone_deg, double twist_deg) {
+    gdx::ObjectPtr object = nullptr;
+    const gdx::Variant held = new_resource("IKChainJoint", object);
+    IKChainJoint* j = gdx::instance_of<IKChainJoint>(object, gdx::String("IKChainJoint"));
+    if (j == nullptr) return;
+    j->set_bone_name(gdx::String(bone));
+    j->set_cone_limit_enabled(true);
+    j->set_cone_angle(cone_deg * kDeg);
+    j->set_twist_limit_enabled(true);
+    j->set_twist_min(-twist_deg * kDeg);
+    j->set_twist_max(twist_deg * kDeg);
+    joints.push_back(held);
+  };
+  add_hinge("LeftLowerLeg", "LeftFoot", false);
+  add_hinge("RightLowerLeg", "RightFoot", false);
+  add_hinge("LeftLowerArm", "LeftHand", true);
+  add_hinge("RightLowerArm", "RightHand", true);
+  add_cone("Spine", 30.0, 30.0);
+  add_cone("Chest", 30.0, 30.0);
+  add_cone("UpperChest", 30.0, 30.0);
+  add_cone("Neck", 40.0, 60.0);
+
+  set_root_bone(gdx::String("Hips"));
+  set_floating_root(true);
+  set_joints(joints);
+  set_effectors(effectors);
+  gdx::Object(owner_).notify_property_list_changed();
+  return true;
+}
+
+}  // namespace ikchain::godot

@@ -1,0 +1,165 @@
+// IKBody: a SkeletonModifier3D that solves every bone under root_bone that supports an effector as
+// one tree (the core's solve_tree: coupled, with strict priority levels), starting each frame from
+// the incoming (animated) pose, so an AnimationPlayer's output is corrected rather than replaced.
+// The skeleton <-> tree mapping lives in skeleton_tree.*; this class holds the properties, the
+// configuration warnings and the per-frame call.
+#pragma once
+
+#include <gdextension_interface.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "binding/builtins.hpp"
+#include "binding/class_db.hpp"
+#include "core/ikchain.hpp"
+#include "core/tree_solve.hpp"
+#include "skeleton_tree.hpp"
+
+namespace ikchain::godot {
+
+class IKBodyEffector;
+
+class IKBody {
+ public:
+  // The values are IKChain.Solver's (the core's SolverKind, then Auto): saved in scenes, never
+  // renumbered. Only the solvers whose solver-table row says `trees` are offered.
+  static constexpr int64_t kSolverAuto = 6;
+  static constexpr int64_t kDefaultMaxIterations = 100;
+  static constexpr double kDefaultTolerance = 1e-4;             // m
+  static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
+  // Each level a goal of the posture pull closes per iteration (see TreeProblem::posture): the
+  // redundant freedom drifts back toward the animated pose instead of wandering.
+  static constexpr double kPostureStiffness = 0.1;
+
+  static void register_class(gdx::ClassRecord& record);
+  static void unregister_class();
+
+  explicit IKBody(gdx::ObjectPtr owner);
+
+  // ---- properties
+  void set_root_bone(const gdx::String& name);
+  gdx::String get_root_bone() const;
+  void set_floating_root(bool on);
+  bool is_floating_root() const { return floating_root_; }
+  void set_effectors(const gdx::Array& effectors);
+  gdx::Array get_effectors() const { return effectors_; }
+  void set_joints(const gdx::Array& joints);
+  gdx::Array get_joints() const { return joints_; }
+  void set_solver(int64_t solver);
+  int64_t get_solver() const { return solver_; }
+  void set_max_iterations(int64_t n);
+  int64_t get_max_iterations() const { return max_iterations_; }
+  void set_tolerance(double meters);
+  double get_tolerance() const { return tolerance_; }
+  void set_orientation_tolerance(double radians);
+  double get_orientation_tolerance() const { return orientation_tolerance_; }
+  void set_deterministic(bool on);
+  bool is_deterministic() const { return deterministic_; }
+
+  // ---- script API
+  gdx::Dictionary get_last_result() const;
+  // The same values as get_last_result()'s keys, without building a Dictionary.
+  gdx::String get_last_reason() const;
+  bool is_last_usable() const;
+  int64_t get_last_iterations() const { return int64_t(last_.summary.iterations); }
+  double get_last_usec() const { return last_.summary.elapsed_us; }
+  double get_last_position_error() const;
+  double get_last_orientation_error() const;
+  // Per effector (the index in `effectors`): its error in the last solve; NaN when it took no part.
+  double get_last_effector_position_error(int64_t index) const;
+  double get_last_effector_rotation_error(int64_t index) const;
+  // Level 1..4: every goal of that level within tolerance in the last solve.
+  bool is_last_level_met(int64_t level) const;
+  gdx::Dictionary solve_now();
+  // Skeleton bone indices the tree solves, root first (empty while not configured).
+  gdx::PackedInt32Array get_body_bones();
+  // Creates the humanoid rig for SkeletonProfileHumanoid bone names (see the class reference).
+  bool setup_humanoid();
+
+  // ---- engine callbacks
+  bool validate_property(GDExtensionPropertyInfo& property);
+  void process_modification(double delta);
+  void notification(int32_t what);
+  gdx::PackedStringArray get_configuration_warnings() const;
+  void skeleton_changed();
+
+ private:
+  struct Problem {
+    std::string property;
+    std::string message;
+    bool fatal = true;  // false: the body still runs (without the part it spoils)
+  };
+  // An enabled, usable effector resolved against the tree.
+  struct Slot {
+    IKBodyEffector* effector = nullptr;
+    int index = 0;          // in effectors[]
+    int core_effector = 0;  // tree effector
+    std::string bone;
+  };
+  // The one configuration pass the warnings and the rebuild share: problems (each with its fix),
+  // and, when asked, the tree description and the effector slots (skeleton bone indices).
+  void configure(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems, SkeletonTreeDesc* desc,
+                 std::vector<Slot>* slots, std::vector<gdx::Variant>* held) const;
+  void mark_dirty();
+  gdx::Skeleton3D skeleton() const;
+  void watch_skeleton(const gdx::Skeleton3D& skeleton);
+  bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
+  void rebuild(const gdx::Skeleton3D& skeleton);
+  bool run(const gdx::Skeleton3D& skeleton);
+  void report_runtime(const std::string& message);
+  void set_invalid_result(const char* message);
+  SolverKind resolved_solver() const;
+
+  gdx::ObjectPtr owner_;
+
+  // Settings.
+  std::string root_bone_;
+  bool floating_root_ = false;
+  gdx::Array effectors_;
+  gdx::Array joints_;
+  int64_t solver_ = kSolverAuto;
+  int64_t max_iterations_ = kDefaultMaxIterations;
+  double tolerance_ = kDefaultTolerance;
+  double orientation_tolerance_ = kDefaultOrientationTolerance;
+  bool deterministic_ = false;
+
+  // Built lazily (rebuild()); the per-frame path only reads these.
+  bool dirty_ = true;
+  bool body_ok_ = false;
+  uint64_t built_skeleton_id_ = 0;
+  int64_t built_skeleton_version_ = -1;
+  uint64_t built_settings_generation_ = 0;
+  std::vector<Problem> body_problems_;
+  SkeletonTree mapping_;
+  int base_bone_ = -1;
+  std::vector<Slot> slots_;
+  std::vector<gdx::Variant> held_;  // references to the effectors the slots point into
+  int effector_array_size_ = 0;
+  // Per-frame buffers, sized at rebuild.
+  std::vector<BonePose> bone_poses_;
+  std::vector<glm::dquat> rotations_;
+  Eigen::VectorXd params_, anim_params_, previous_anim_params_, last_params_;
+  std::vector<double> posture_stiffness_;
+  std::vector<TreeGoal> goals_;
+  std::vector<int> goal_slot_;       // per goal: its slot
+  std::vector<char> goal_rotation_;  // per goal: the orientation goal (else position)
+  TreeWorkspace workspace_;
+  SolverOptions options_;
+  bool have_last_ = false;
+
+  std::vector<std::string> runtime_reported_;
+  int reports_this_frame_ = 0;
+
+  // Last solve.
+  bool has_result_ = false;
+  TreeSolveResult last_;
+  int last_goal_count_ = 0;
+  std::vector<double> effector_position_error_, effector_rotation_error_;  // per effectors[] index
+};
+
+}  // namespace ikchain::godot

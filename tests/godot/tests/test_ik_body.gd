@@ -1,0 +1,418 @@
+# IKBody on a humanoid built from Godot's SkeletonProfileHumanoid (names, parents, reference poses:
+# what a retargeted glTF/FBX humanoid has). Poses are read inside skeleton_updated (the modifier's
+# output); every reach is checked by forward kinematics: the skeleton's modified global bone pose
+# against the target node's global transform.
+extends "res://lib/ik_test.gd"
+
+## Float32 slack on top of the tolerance for distances read from Godot's transforms.
+const FLOAT_SLACK := 2e-5
+
+
+# ------------------------------------------------------------------ fixtures
+
+func _humanoid() -> Skeleton3D:
+	var profile := SkeletonProfileHumanoid.new()
+	var skel := Skeleton3D.new()
+	skel.name = "Skeleton"
+	for i in profile.bone_size:
+		skel.add_bone(profile.get_bone_name(i))
+	for i in profile.bone_size:
+		var parent: StringName = profile.get_bone_parent(i)
+		if parent != &"":
+			skel.set_bone_parent(i, skel.find_bone(parent))
+		skel.set_bone_rest(i, profile.get_reference_pose(i))
+	skel.reset_bone_poses()
+	return skel
+
+
+func _effector(bone: String, target: Node3D, priority := 1, position_weight := 1.0,
+		rotation_weight := 0.0) -> IKBodyEffector:
+	var e := IKBodyEffector.new()
+	e.bone_name = bone
+	e.priority = priority
+	e.position_weight = position_weight
+	e.rotation_weight = rotation_weight
+	if target != null:
+		e.target = NodePath("../../" + String(target.name))
+	return e
+
+
+func _target(name: String, t: Transform3D) -> Node3D:
+	var n := Node3D.new()
+	n.name = name
+	n.transform = t
+	case_root.add_child(n)
+	return n
+
+
+## The skeleton's global and local bone poses (skeleton at the origin: skeleton space = world) at
+## the next skeleton_updated, with the body's result. `idle_ok`: a body that writes nothing leaves
+## the skeleton clean, so no skeleton_updated comes; the pose is then read after a few frames.
+func _capture(skel: Skeleton3D, body: IKBody, idle_ok := false) -> Dictionary:
+	var cap := {}
+	var grab := func():
+		if cap.is_empty():
+			var globals := []
+			var locals := []
+			for i in skel.get_bone_count():
+				globals.append(skel.get_bone_global_pose(i))
+				locals.append(skel.get_bone_pose(i))
+			cap["globals"] = globals
+			cap["locals"] = locals
+			cap["result"] = body.get_last_result()
+	skel.skeleton_updated.connect(grab)
+	var waited := 0
+	while cap.is_empty() and waited < 4:
+		await process_frame
+		waited += 1
+	skel.skeleton_updated.disconnect(grab)
+	if cap.is_empty() and idle_ok:
+		grab.call()
+	return cap
+
+
+## The global poses of a copy of the humanoid with `rotations` (bone name -> extra local rotation
+## on top of the rest) applied: the forward kinematics targets are taken from.
+func _posed_globals(rotations: Dictionary) -> Dictionary:
+	var skel := _humanoid()
+	for bone in rotations:
+		var i := skel.find_bone(bone)
+		skel.set_bone_pose_rotation(i, skel.get_bone_rest(i).basis.get_rotation_quaternion() * rotations[bone])
+	var out := {}
+	for i in skel.get_bone_count():
+		out[skel.get_bone_name(i)] = skel.get_bone_global_pose(i)
+	skel.free()
+	return out
+
+
+func _all_finite(cap: Dictionary) -> bool:
+	for t in cap["globals"]:
+		if not transform_is_finite(t):
+			return false
+	return true
+
+
+func _origin(skel: Skeleton3D, cap: Dictionary, bone: String) -> Vector3:
+	return (cap["globals"][skel.find_bone(bone)] as Transform3D).origin
+
+
+func _random_rotation(rng: RandomNumberGenerator, max_angle: float) -> Quaternion:
+	var axis := Vector3(rng.randf_range(-1, 1), rng.randf_range(-1, 1), rng.randf_range(-1, 1)).normalized()
+	return Quaternion(axis, rng.randf_range(-max_angle, max_angle))
+
+
+# ------------------------------------------------------------------ reaching
+
+const LIMB_BONES := ["Spine", "Chest", "UpperChest", "Neck", "Head", "LeftShoulder", "LeftUpperArm",
+		"LeftLowerArm", "LeftHand", "RightShoulder", "RightUpperArm", "RightLowerArm", "RightHand",
+		"LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "RightUpperLeg", "RightLowerLeg", "RightFoot"]
+
+
+# Two hands, two feet (position and rotation) and the head at once, on one branched body: the case
+# a stack of IKChain nodes fails (arms and head share the spine). The targets are the forward
+# kinematics of random poses, so they are reachable.
+func test_hands_feet_and_head_at_once_by_forward_kinematics() -> void:
+	var rng := RandomNumberGenerator.new()
+	rng.seed = 1501
+	for trial in 3:
+		var rotations := {}
+		for bone in LIMB_BONES:
+			rotations[bone] = _random_rotation(rng, 0.5)
+		var posed := _posed_globals(rotations)
+		var skel := _humanoid()
+		case_root.add_child(skel)
+		var body := IKBody.new()
+		body.root_bone = "Hips"
+		var effectors: Array[IKBodyEffector] = []
+		var names := ["LeftHand", "RightHand", "LeftFoot", "RightFoot", "Head"]
+		for bone in names:
+			var t := _target("T_%s_%d" % [bone, trial], posed[bone])
+			var with_rotation: bool = bone.ends_with("Foot")
+			effectors.append(_effector(bone, t, 1, 1.0, 1.0 if with_rotation else 0.0))
+		body.effectors = effectors
+		body.max_iterations = 200
+		skel.add_child(body)
+		var cap := await _capture(skel, body)
+		var label := "trial %d" % trial
+		if not check(not cap.is_empty(), label + ": skeleton_updated came"):
+			return
+		check(_all_finite(cap), label + ": every bone pose finite")
+		check_eq(cap["result"]["reason"], "converged", label + ": reason")
+		for k in names.size():
+			var bone: String = names[k]
+			var reached := _origin(skel, cap, bone).distance_to(posed[bone].origin)
+			check_le(reached, body.tolerance + FLOAT_SLACK, "%s: %s position by FK (m)" % [label, bone])
+			check_le(body.get_last_effector_position_error(k), body.tolerance, "%s: %s reported error" % [label, bone])
+			if bone.ends_with("Foot"):
+				var q: Quaternion = (cap["globals"][skel.find_bone(bone)] as Transform3D).basis.get_rotation_quaternion()
+				var want: Quaternion = posed[bone].basis.get_rotation_quaternion()
+				check_le(q.angle_to(want), body.orientation_tolerance + 1e-4, "%s: %s rotation by FK (rad)" % [label, bone])
+		# Only the bones that support an effector are solved: 20 of the profile's 56.
+		check_eq(body.get_body_bones().size(), 20, label + ": bones in the tree")
+		check(cap["result"]["levels_met"][0], label + ": level 1 met")
+		skel.free()
+
+
+# Feet at level 1 stay planted while both hands chase targets out of reach at level 2 (the root
+# floats, so the hands could drag the whole body off its feet).
+func test_priorities_feet_hold_while_hands_chase_the_unreachable() -> void:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
+	var body := IKBody.new()
+	body.root_bone = "Hips"
+	body.floating_root = true
+	body.max_iterations = 300
+	body.effectors = [
+		_effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
+		_effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
+		_effector("LeftHand", _target("LH", Transform3D(Basis(), Vector3(3, 2.5, 2))), 2),
+		_effector("RightHand", _target("RH", Transform3D(Basis(), Vector3(-3, 2.5, 2))), 2),
+	]
+	skel.add_child(body)
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check(_all_finite(cap), "every bone pose finite")
+	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-4 + FLOAT_SLACK, "left foot planted (m)")
+	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-4 + FLOAT_SLACK, "right foot planted (m)")
+	check(body.is_last_level_met(1), "level 1 (feet) met")
+	check(not body.is_last_level_met(2), "level 2 (hands out of reach) not met")
+	check(body.get_last_effector_position_error(2) > 0.5, "the left hand is still far: its error is reported")
+	check(body.get_last_reason() != "invalid_input", "the solve was usable: " + body.get_last_reason())
+
+
+# A floating root crouches: the hands reach low in front while the feet stay planted; the hips drop.
+func test_floating_root_crouches_with_feet_planted() -> void:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var hips_rest := skel.get_bone_global_pose(skel.find_bone("Hips")).origin
+	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
+	var body := IKBody.new()
+	body.root_bone = "Hips"
+	body.floating_root = true
+	body.max_iterations = 300
+	var low := Vector3(0.1, hips_rest.y * 0.45, 0.3)
+	body.effectors = [
+		_effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
+		_effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
+		_effector("LeftHand", _target("LH", Transform3D(Basis(), low)), 2),
+	]
+	skel.add_child(body)
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check(_all_finite(cap), "every bone pose finite")
+	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-4 + FLOAT_SLACK, "left foot planted (m)")
+	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-4 + FLOAT_SLACK, "right foot planted (m)")
+	check_le(_origin(skel, cap, "LeftHand").distance_to(low), 1e-3, "the hand reaches low (m)")
+	check(_origin(skel, cap, "Hips").y < hips_rest.y - 0.02, "the hips dropped: %.4f -> %.4f" % [hips_rest.y,
+			_origin(skel, cap, "Hips").y])
+
+
+# ------------------------------------------------------------------ humanoid set-up
+
+func test_setup_humanoid_from_profile_names() -> void:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	check(body.setup_humanoid(), "setup_humanoid() succeeds on the profile's names")
+	check_eq(body.root_bone, "Hips", "root_bone")
+	check(body.floating_root, "floating_root on")
+	var by_bone := {}
+	for e in body.effectors:
+		by_bone[(e as IKBodyEffector).bone_name] = e
+	for bone in ["Hips", "LeftFoot", "RightFoot", "LeftHand", "RightHand", "Head"]:
+		check(by_bone.has(bone), "an effector on " + bone)
+	check_eq(by_bone["LeftFoot"].priority, 1, "feet at level 1")
+	check_eq(by_bone["Hips"].priority, 1, "hips at level 1")
+	check_eq(by_bone["LeftHand"].priority, 2, "hands at level 2")
+	check_eq(by_bone["Head"].priority, 3, "head at level 3")
+	check(by_bone["Head"].rotation_weight > 0.0, "the head is rotation weighted")
+	var joints := {}
+	for j in body.joints:
+		joints[(j as IKChainJoint).bone_name] = j
+	for bone in ["LeftLowerLeg", "RightLowerLeg", "LeftLowerArm", "RightLowerArm"]:
+		check(joints.has(bone) and joints[bone].type == IKChainJoint.JOINT_HINGE, bone + " is a hinge")
+		if joints.has(bone):
+			check_near(joints[bone].hinge_max, deg_to_rad(150.0), 1e-6, bone + " bends up to 150°")
+	for bone in ["Spine", "Chest", "UpperChest", "Neck"]:
+		check(joints.has(bone) and joints[bone].cone_limit_enabled, bone + " has a cone")
+	# Targets left for the user: assign feet where they stand and lower the hips' target by 10 cm:
+	# the knees must bend forward (the right way), the feet stay.
+	var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
+	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
+	var knee_rest := skel.get_bone_global_pose(skel.find_bone("LeftLowerLeg")).origin
+	var targets := {"Hips": hips.translated(Vector3(0, -0.1, 0)), "LeftFoot": lfoot, "RightFoot": rfoot}
+	for bone in targets:
+		var t := _target("T" + bone, targets[bone])
+		by_bone[bone].target = body.get_path_to(t)
+	body.max_iterations = 300
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check(_all_finite(cap), "every bone pose finite")
+	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-3, "left foot stays (m)")
+	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-3, "right foot stays (m)")
+	check(_origin(skel, cap, "Hips").y < hips.origin.y - 0.05, "the hips went down")
+	check(_origin(skel, cap, "LeftLowerLeg").z > knee_rest.z + 0.01, "the left knee bends forward: z %.4f -> %.4f" % [
+			knee_rest.z, _origin(skel, cap, "LeftLowerLeg").z])
+
+
+func test_setup_humanoid_names_missing_bones_and_changes_nothing() -> void:
+	var skel := Skeleton3D.new()
+	skel.add_bone("Hips")
+	skel.add_bone("Spine")
+	skel.set_bone_parent(1, 0)
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	expect_error("lacks the humanoid bones.*LeftFoot", 1)
+	check(not body.setup_humanoid(), "setup_humanoid() refuses")
+	check_eq(body.effectors.size(), 0, "no effectors created")
+	check_eq(body.joints.size(), 0, "no joints created")
+	check_eq(body.root_bone, "", "root_bone untouched")
+
+
+# ------------------------------------------------------------------ blending with animation
+
+# The incoming pose is the animation's (here set by script, as an AnimationPlayer would each frame):
+# an effector with influence 0 leaves it, 1 reaches the target, 0.5 goes halfway.
+func test_influence_per_effector_blends_with_the_animated_pose() -> void:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var elbow := skel.find_bone("LeftLowerArm")
+	var animated_rotation := skel.get_bone_rest(elbow).basis.get_rotation_quaternion() * Quaternion(Vector3(1, 0, 0), 0.8)
+	var hand := skel.find_bone("LeftHand")
+	skel.set_bone_pose_rotation(elbow, animated_rotation)
+	var animated_hand := skel.get_bone_global_pose(hand).origin
+	var goal := animated_hand + Vector3(0.0, 0.06, 0.05)
+	var body := IKBody.new()
+	body.root_bone = "Hips"
+	body.deterministic = true
+	var e := _effector("LeftHand", _target("LH", Transform3D(Basis(), goal)), 1)
+	body.effectors = [e]
+	skel.add_child(body)
+	for influence in [0.0, 0.5, 1.0]:
+		e.influence = influence
+		skel.set_bone_pose_rotation(elbow, animated_rotation)  # the animation, every frame
+		var cap := await _capture(skel, body)
+		if not check(not cap.is_empty(), "skeleton_updated came"):
+			return
+		var want := animated_hand.lerp(goal, influence)
+		check_le(_origin(skel, cap, "LeftHand").distance_to(want), 1e-4 + FLOAT_SLACK,
+				"influence %.1f: hand at the blend of animation and target (m)" % influence)
+		# Bones that support no effector keep their animated local pose exactly.
+		for bone in ["RightUpperArm", "RightLowerArm", "LeftUpperLeg"]:
+			var i := skel.find_bone(bone)
+			check(transforms_near(cap["locals"][i], skel.get_bone_rest(i), 1e-6),
+					"influence %.1f: %s keeps its local pose" % [influence, bone])
+	# The node's own influence 0: the animated pose comes through untouched.
+	e.influence = 1.0
+	body.influence = 0.0
+	skel.set_bone_pose_rotation(elbow, animated_rotation)
+	var cap0 := await _capture(skel, body)
+	if check(not cap0.is_empty(), "skeleton_updated came"):
+		check_le(_origin(skel, cap0, "LeftHand").distance_to(animated_hand), 1e-5, "node influence 0: the animated hand")
+
+
+# ------------------------------------------------------------------ hostile inputs
+
+func _warnings(body: IKBody) -> String:
+	return "\n".join(body._get_configuration_warnings())
+
+
+func _body_with(effectors: Array, root := "Hips") -> Dictionary:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	body.root_bone = root
+	body.effectors = effectors
+	skel.add_child(body)
+	return {"skeleton": skel, "body": body}
+
+
+func test_hostile_nan_and_inf_targets_keep_a_defined_pose() -> void:
+	var good := _target("Good", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
+	var bad := _target("Bad", Transform3D(Basis(), Vector3(NAN, 0.0, INF)))
+	var rig := _body_with([_effector("LeftHand", good), _effector("RightHand", bad)])
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	expect_error("effectors\\[1\\].*RightHand.*not finite", 1)
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check(_all_finite(cap), "every bone pose finite")
+	check(is_nan(body.get_last_effector_position_error(1)), "the NaN effector took no part")
+	check(body.is_last_usable(), "the other effector still solved")
+	bad.position = Vector3(-0.3, 1.0, 0.3)  # back to finite: it rejoins
+	cap = await _capture(skel, body)
+	check(is_finite(body.get_last_effector_position_error(1)), "the effector rejoins once its target is finite")
+
+
+func test_hostile_target_freed_while_running() -> void:
+	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
+	var rig := _body_with([_effector("LeftHand", t)])
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	var cap := await _capture(skel, body)
+	check(body.is_last_usable(), "solved while the target lives")
+	expect_error("effectors\\[0\\].*target does not point to a Node3D", 1)
+	t.free()
+	for i in 3:
+		cap = await _capture(skel, body, true)
+		if check(not cap.is_empty(), "skeleton_updated came"):
+			check(_all_finite(cap), "frame %d after the free: every bone pose finite" % i)
+	check_eq(body.get_last_reason(), "invalid_input", "no goal left: the animated pose is kept")
+
+
+func test_hostile_configuration_problems_are_named_with_their_fix() -> void:
+	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
+	var cases := [
+		[[_effector("NoSuchBone", t)], "Hips", "'NoSuchBone' is not in the skeleton"],
+		[[_effector("LeftHand", t)], "LeftUpperLeg", "not under root_bone 'LeftUpperLeg'"],
+		[[_effector("LeftHand", t, 0)], "Hips", "priority 0 is out of range 1..4"],
+		[[_effector("LeftHand", t, 9)], "Hips", "priority 9 is out of range 1..4"],
+		[[], "Hips", "no enabled effector"],
+		[[_effector("LeftHand", t), _effector("LeftHand", t)], "Hips", "names the same bone as effectors\\[0\\]"],
+		[[_effector("LeftHand", t, 1, 0.0, 0.0)], "Hips", "position_weight and rotation_weight are both 0"],
+		[[null], "Hips", "effectors\\[0\\] is empty or not an IKBodyEffector"],
+		[[_effector("LeftHand", t)], "", "root_bone is empty"],
+		[[_effector("LeftHand", t)], "Nope", "root_bone 'Nope' is not a bone"],
+	]
+	for c in cases:
+		var rig := _body_with(c[0], c[1])
+		var skel: Skeleton3D = rig["skeleton"]
+		var body: IKBody = rig["body"]
+		var w := _warnings(body)
+		var regex := RegEx.create_from_string(c[2])
+		check(regex.search(w) != null, "warning matches '%s'; got: %s" % [c[2], w])
+		var cap := await _capture(skel, body, true)
+		if check(not cap.is_empty(), c[2] + ": skeleton_updated came"):
+			check(_all_finite(cap), c[2] + ": every bone pose finite")
+		skel.free()
+
+
+func test_hostile_out_of_range_priority_is_clamped_and_solved() -> void:
+	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
+	var rig := _body_with([_effector("LeftHand", t, 9)])
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	var cap := await _capture(skel, body)
+	check(body.is_last_usable(), "solved at the clamped level")
+	check(is_finite(body.get_last_effector_position_error(0)), "the effector took part")
+
+
+func test_result_before_any_solve_and_typed_getters_agree() -> void:
+	var body := IKBody.new()
+	check_eq(body.get_last_reason(), "not_run", "reason before any solve")
+	check(is_nan(body.get_last_effector_position_error(0)), "no effector error before any solve")
+	var r := body.get_last_result()
+	for key in ["reason", "usable", "iterations", "usec", "levels_met", "effector_position_errors",
+			"effector_rotation_errors", "position_error", "orientation_error", "message"]:
+		check(r.has(key), "get_last_result() has " + key)
+	body.free()
