@@ -416,3 +416,58 @@ func test_result_before_any_solve_and_typed_getters_agree() -> void:
 			"effector_rotation_errors", "position_error", "orientation_error", "message"]:
 		check(r.has(key), "get_last_result() has " + key)
 	body.free()
+
+
+func test_properties_hints_and_defaults() -> void:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	check_eq(body.root_bone, "", "root_bone default")
+	check_eq(body.floating_root, false, "floating_root default")
+	check_eq(body.solver, IKBody.SOLVER_AUTO, "solver default")
+	check_eq(body.max_iterations, 100, "max_iterations default")
+	check_near(body.tolerance, 1e-4, 1e-12, "tolerance default")
+	check_eq(body.deterministic, false, "deterministic default")
+	var e := IKBodyEffector.new()
+	check_eq(e.priority, 1, "effector priority default")
+	check_near(e.position_weight, 1.0, 0.0, "effector position_weight default")
+	check_near(e.rotation_weight, 0.0, 0.0, "effector rotation_weight default (position only)")
+	check_near(e.influence, 1.0, 0.0, "effector influence default")
+	check(e.enabled, "effector enabled default")
+	for p in body.get_property_list():
+		if p["name"] == "root_bone":
+			check_eq(p["hint"], PROPERTY_HINT_ENUM, "root_bone is a bone drop-down")
+			check(String(p["hint_string"]).contains("LeftUpperLeg"), "the drop-down lists the skeleton's bones")
+		if p["name"] == "solver":
+			check(String(p["hint_string"]).contains("Damped Least Squares:3"), "solver offers DLS")
+			check(not String(p["hint_string"]).contains("Two-Bone"), "solver does not offer the chain-only two-bone")
+	expect_error("IKBodyEffector: influence must be in \\[0, 1\\], got 2", 1)
+	e.influence = 2.0
+	check_near(e.influence, 1.0, 0.0, "influence clamped")
+
+
+# deterministic: the output depends only on the frame's incoming pose and targets: two bodies
+# solving the same thing write bit-identical poses.
+func test_deterministic_output_is_bit_identical() -> void:
+	var results := []
+	for run in 2:
+		var skel := _humanoid()
+		case_root.add_child(skel)
+		var body := IKBody.new()
+		body.root_bone = "Hips"
+		body.floating_root = true
+		body.deterministic = true
+		body.effectors = [
+			_effector("LeftHand", _target("LH%d" % run, Transform3D(Basis(), Vector3(0.4, 0.9, 0.3))), 2),
+			_effector("LeftFoot", _target("LF%d" % run, skel.get_bone_global_pose(skel.find_bone("LeftFoot"))), 1, 1.0, 1.0),
+		]
+		skel.add_child(body)
+		var first := await _capture(skel, body)
+		var second := await _capture(skel, body)
+		if not check(not first.is_empty() and not second.is_empty(), "run %d: skeleton_updated came" % run):
+			return
+		check(first["locals"] == second["locals"], "run %d: the same pose on consecutive frames" % run)
+		results.append(first["locals"])
+		skel.free()
+	check(results[0] == results[1], "two bodies write bit-identical poses")
