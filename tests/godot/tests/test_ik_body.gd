@@ -471,3 +471,27 @@ func test_deterministic_output_is_bit_identical() -> void:
 		results.append(first["locals"])
 		skel.free()
 	check(results[0] == results[1], "two bodies write bit-identical poses")
+
+
+# The inspector action (addons/ikchain/ik_body_inspector.gd; editor classes cannot be instantiated
+# outside the editor, so this checks that the plugin scripts compile and that what the action's undo
+# restores are IKBody's properties, all of which setup_humanoid() replaces).
+func test_inspector_action_scripts_compile_and_name_real_properties() -> void:
+	var Inspector: GDScript = load("res://addons/ikchain/ik_body_inspector.gd")
+	var Plugin: GDScript = load("res://addons/ikchain/plugin.gd")
+	check(Plugin != null, "plugin.gd compiles")
+	if not check(Inspector != null, "ik_body_inspector.gd compiles"):
+		return
+	var constants := Inspector.get_script_constant_map()
+	check_eq(constants.get("BUTTON_TEXT"), "Set up humanoid", "the button's text")
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	var before := {}
+	for property in constants.get("REPLACED", []):
+		check(property in body, "IKBody has property " + property)
+		before[property] = body.get(property)
+	check(body.setup_humanoid(), "setup_humanoid() ran")
+	for property in before:
+		check(body.get(property) != before[property], property + " was replaced (so undo must restore it)")
