@@ -413,6 +413,7 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
                           false});
     Slot s;
     s.effector = e;
+    s.skeleton_bone = bone;
     s.index = int(i);
     s.bone = e->bone_name();
     s.core_effector = int(found.size());
@@ -459,6 +460,24 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
       continue;
     }
     joint_of[size_t(bone)] = j;
+  }
+  // A pole turns a limb about the line from its upper bone (the effector bone's grandparent, a
+  // ball joint of the body) to the effector bone.
+  for (Slot& s : found) {
+    if (s.effector->get_pole_target().is_empty()) continue;
+    const int mid = parents[size_t(s.skeleton_bone)];
+    const int upper = (s.skeleton_bone == root || mid < 0 || mid == root) ? -1 : parents[size_t(mid)];
+    const bool hinge = upper >= 0 && joint_of[size_t(upper)] != nullptr &&
+                       joint_of[size_t(upper)]->settings().type == JointType::kHinge;
+    if (upper < 0 || hinge) {
+      problems.push_back({"effectors", "IKBody: " + effector_label(s.index, s.bone) +
+                                           ": pole_target needs a limb: the bone must be at least two bones below "
+                                           "root_bone, its grandparent a ball joint (the upper arm or leg). Clear "
+                                           "pole_target or move the effector to the limb's end.",
+                          false});
+      continue;
+    }
+    s.pole_end = 0;  // a pole to resolve against the mapping
   }
   if (desc == nullptr) return;
   desc->floating_root = floating_root_;
@@ -553,6 +572,11 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
     previous_anim_params_ = Eigen::VectorXd::Constant(dofs, kNaN);
     last_params_ = Eigen::VectorXd::Zero(dofs);
     posture_stiffness_.assign(size_t(dofs), kPostureStiffness);
+    posture_ = Eigen::VectorXd::Zero(dofs);
+    for (Slot& slot : slots_)
+      slot.pole_end = slot.pole_end < 0 ? -1 : mapping_.bone_of(slot.skeleton_bone);
+    for (Slot& slot : slots_)
+      if (slot.pole_end >= 0 && mapping_.pole_upper_bone(slot.pole_end) < 0) slot.pole_end = -1;
     have_last_ = false;
     body_ok_ = true;
   } else {
@@ -640,10 +664,33 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     return false;
   }
 
+  // Poles: the start pose's and the posture's limb planes turned toward them.
+  const gdx::Node self = gdx::Node::unchecked(owner_);
+  posture_ = anim_params_;
+  for (const Slot& slot : slots_) {
+    if (slot.pole_end < 0 || !slot.effector->is_enabled()) continue;
+    const gdx::Node3D pole = gdx::Node3D::cast(self.get_node_or_null(slot.effector->get_pole_target()));
+    if (!pole || !pole.is_inside_tree()) {
+      report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
+                     ": pole_target does not point to a Node3D in the scene tree; the pole is ignored until it is "
+                     "back.");
+      continue;
+    }
+    const glm::dvec3 pole_in_tree =
+        mapping_.point_in_tree(base.point_in_base(glm::dvec3(gdx::to_glm(pole.get_global_transform())[3])));
+    if (!within_magnitude(pole_in_tree)) {
+      report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
+                     ": pole_target's position is not finite (or absurdly far); the pole is ignored until it is "
+                     "back.");
+      continue;
+    }
+    mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, params_.data(), workspace_);
+    mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, posture_.data(), workspace_);
+  }
+
   // The animated effector poses: what an effector with influence < 1 blends from.
   const Tree& tree = mapping_.tree();
   tree_forward_kinematics(tree, anim_params_.data(), workspace_);
-  const gdx::Node self = gdx::Node::unchecked(owner_);
   int goal_count = 0;
   std::fill(effector_position_error_.begin(), effector_position_error_.end(), kNaN);
   std::fill(effector_rotation_error_.begin(), effector_rotation_error_.end(), kNaN);
@@ -706,7 +753,7 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
 
   TreeProblem problem;
   problem.goals = Span<const TreeGoal>(goals_.data(), goal_count);
-  problem.posture = Span<const double>(anim_params_.data(), int(anim_params_.size()));
+  problem.posture = Span<const double>(posture_.data(), int(posture_.size()));
   problem.posture_stiffness = Span<const double>(posture_stiffness_.data(), int(posture_stiffness_.size()));
   last_ = solve_tree(resolved_solver(), tree, problem, options_, workspace_, params_);
   has_result_ = true;

@@ -99,6 +99,8 @@ class IKBody {
     IKBodyEffector* effector = nullptr;
     int index = 0;          // in effectors[]
     int core_effector = 0;  // tree effector
+    int skeleton_bone = -1;
+    int pole_end = -1;      // with a usable pole_target: the mapping bone the limb ends at
     std::string bone;
   };
   // The one configuration pass the warnings and the rebuild share: problems (each with its fix),
@@ -144,6 +146,7 @@ class IKBody {
   std::vector<BonePose> bone_poses_;
   std::vector<glm::dquat> rotations_;
   Eigen::VectorXd params_, anim_params_, previous_anim_params_, last_params_;
+  Eigen::VectorXd posture_;  // the animated pose, limb planes turned toward their poles
   std::vector<double> posture_stiffness_;
   std::vector<TreeGoal> goals_;
   std::vector<int> goal_slot_;       // per goal: its slot

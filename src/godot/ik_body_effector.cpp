@@ -72,8 +72,8 @@ IKBodyEffector* IKBodyEffector::from_object(gdx::ObjectPtr object) {
 }
 
 void IKBodyEffector::changed(bool structural) {
-  // Only what reshapes the tree (the bone, enabled) makes the IKBody rebuild; targets, weights,
-  // priority and influence are read every frame (keyable).
+  // Only what reshapes the body (the bone, enabled, the pole) makes the IKBody rebuild; targets,
+  // weights, priority and influence are read every frame (keyable).
   if (structural) IKChainJoint::bump_generation();
   gdx::Resource::unchecked(owner_).emit_changed();
 }
@@ -116,7 +116,7 @@ void IKBodyEffector::set_influence(double influence) {
 }
 void IKBodyEffector::set_pole_target(const gdx::NodePath& path) {
   pole_target_ = path;
-  changed(false);
+  changed(true);  // which limbs take a pole is resolved at the rebuild
 }
 
 }  // namespace ikchain::godot

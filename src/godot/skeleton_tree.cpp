@@ -230,6 +230,47 @@ bool SkeletonTree::pose_from_params(const double* params, Span<glm::dquat> local
   return ok && so3::finite(root_position);
 }
 
+int SkeletonTree::pole_upper_bone(int end) const {
+  if (!valid_ || end <= 0 || end >= bone_count()) return -1;
+  const int mid = tree_.parent(end);
+  const int upper = mid >= 0 ? tree_.parent(mid) : -1;
+  return upper >= 0 && tree_.joint_type(upper) == JointType::kBall ? upper : -1;
+}
+
+bool SkeletonTree::swivel_toward_pole(int end, const glm::dvec3& pole_in_tree, double* params,
+                                      TreeWorkspace& ws) const {
+  const int upper = pole_upper_bone(end);
+  if (upper < 0 || !so3::finite(pole_in_tree)) return false;
+  const int mid = tree_.parent(end);
+  tree_forward_kinematics(tree_, params, ws);
+  const glm::dvec3 a = ws.joint_origins[size_t(upper)];
+  const glm::dvec3 k = ws.joint_origins[size_t(mid)];
+  const glm::dvec3 b = ws.joint_origins[size_t(end)];
+  glm::dvec3 axis = b - a;
+  const double length = glm::length(axis);
+  if (!(length > 1e-9)) return false;
+  axis /= length;
+  glm::dvec3 knee = (k - a) - axis * glm::dot(k - a, axis);
+  glm::dvec3 pole = (pole_in_tree - a) - axis * glm::dot(pole_in_tree - a, axis);
+  const double knee_off = glm::length(knee), pole_off = glm::length(pole);
+  // A straight limb (the middle joint within 1 mm per metre of the line) has no bend plane to turn.
+  if (!(knee_off > 1e-3 * length) || !(pole_off > 1e-9 * length) || !std::isfinite(pole_off)) return false;
+  knee /= knee_off;
+  pole /= pole_off;
+  const double angle = std::atan2(glm::dot(glm::cross(knee, pole), axis), glm::dot(knee, pole));
+  // The upper bone's frame turned about the line in base space: Q' = G Q, so its motion becomes
+  // R' = conj(pre) G Q (Q = pre R).
+  const glm::dquat turned = glm::normalize(glm::conjugate(ws.joint_pre_rotations[size_t(upper)]) *
+                                           glm::angleAxis(angle, axis) * ws.joint_orientations[size_t(upper)]);
+  double* p = params + tree_.dof_offset(upper);
+  const glm::dvec3 r = so3::log(turned);
+  p[0] = r.x;
+  p[1] = r.y;
+  p[2] = r.z;
+  if (tree_.has_limits(upper)) project_joint_params(JointType::kBall, tree_.limits(upper), p);
+  return true;
+}
+
 Message SkeletonTree::scale_warning() const {
   if (!valid_ || non_uniform_bone_ < 0) return Message();
   const glm::dvec3& s = poses_[size_t(non_uniform_bone_)].scale;

@@ -33,6 +33,7 @@
 #include "core/message.hpp"
 #include "core/span.hpp"
 #include "core/tree.hpp"
+#include "core/tree_solve.hpp"
 #include "skeleton_chain.hpp"
 
 namespace ikchain::godot {
@@ -98,6 +99,18 @@ class SkeletonTree {
   // bone has moved from where the tree was built (identity for a floating root).
   glm::dvec3 point_in_tree(const glm::dvec3& point_in_base) const { return point_in_base - root_shift_; }
   glm::dvec3 point_in_base(const glm::dvec3& point_in_tree) const { return point_in_tree + root_shift_; }
+
+  // ---- pole (bend hint) ----
+
+  // The upper bone of the limb that ends at bone `end` (mapping indices): end's grandparent, when it
+  // is a ball joint (it turns the limb about the line to `end`); -1 when the limb cannot take a pole.
+  int pole_upper_bone(int end) const;
+  // Turns the limb ending at bone `end` about the line from its upper bone's origin to end's origin
+  // so that its middle joint (end's parent) points toward `pole_in_tree`: end's position is kept,
+  // the bend plane faces the pole (the upper joint's limits still hold). Nothing changes (false) for
+  // a limb that cannot take a pole, a straight limb (no bend plane to turn), or a pole on the line.
+  // `ws` is scratch for the forward kinematics (sized for the tree). Allocates nothing.
+  bool swivel_toward_pole(int end, const glm::dvec3& pole_in_tree, double* params, TreeWorkspace& ws) const;
 
   // A bone's non-uniform scale: the rigid tree only approximates it (a configuration warning).
   Message scale_warning() const;

@@ -351,6 +351,56 @@ TEST(SkeletonTree, NonFinitePoseIsRefusedByNameAndTheTreeKept) {
   for (double p : params) EXPECT_TRUE(std::isfinite(p));
 }
 
+// The perpendicular part of p - a with respect to the line a -> b, normalised.
+glm::dvec3 off_line(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b) {
+  const glm::dvec3 axis = glm::normalize(b - a);
+  return glm::normalize((p - a) - axis * glm::dot(p - a, axis));
+}
+
+TEST(SkeletonTree, PoleSwivelsTheBendPlaneAndKeepsTheLimbsEnd) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    Skel s = body();
+    std::vector<int> order;
+    SkeletonTree map;
+    ASSERT_TRUE(map.build(describe(s, "Hips", {"LeftHand", "RightFoot"}, trial % 2 == 1, &order)).empty());
+    for (int b : order)
+      s.poses[size_t(b)].rotation = s.rests[size_t(b)] * so3::exp(glm::dvec3(u(rng), u(rng), u(rng)) * 0.6);
+    ASSERT_TRUE(update(map, poses_of(s, order)).error.empty());
+    std::vector<double> params(size_t(map.tree().dof_count()), 0.0);
+    map.params_from_pose(params.data());
+    TreeWorkspace ws(map.tree(), 4);
+    const int hand = map.bone_of(find(s, "LeftHand")), elbow = map.bone_of(find(s, "LeftLowerArm"));
+    const int shoulder = map.bone_of(find(s, "LeftUpperArm"));
+    EXPECT_EQ(map.pole_upper_bone(hand), shoulder);
+    tree_forward_kinematics(map.tree(), params.data(), ws);
+    const glm::dvec3 hand_before = ws.joint_origins[size_t(hand)];
+    const glm::dvec3 pole = glm::dvec3(u(rng), u(rng), u(rng)) * 2.0;
+    ASSERT_TRUE(map.swivel_toward_pole(hand, pole, params.data(), ws));
+    tree_forward_kinematics(map.tree(), params.data(), ws);
+    const glm::dvec3 a = ws.joint_origins[size_t(shoulder)], b = ws.joint_origins[size_t(hand)];
+    EXPECT_LT(glm::length(b - hand_before), 1e-12);
+    EXPECT_LT(glm::length(off_line(ws.joint_origins[size_t(elbow)], a, b) - off_line(pole, a, b)), 1e-9);
+  }
+}
+
+TEST(SkeletonTree, PoleLeavesStraightLimbsAndShortLimbsAlone) {
+  Skel s = body();
+  std::vector<int> order;
+  SkeletonTree map;
+  // The rest arm is nearly straight (a 0.05 rad bend): it has a plane; a fully straight one does not.
+  for (int b : {find(s, "LeftLowerArm")}) s.rests[size_t(b)] = s.poses[size_t(b)].rotation = glm::dquat(1, 0, 0, 0);
+  ASSERT_TRUE(map.build(describe(s, "Hips", {"LeftHand", "Spine"}, false, &order)).empty());
+  std::vector<double> params(size_t(map.tree().dof_count()), 0.0);
+  map.params_from_pose(params.data());
+  const std::vector<double> before = params;
+  TreeWorkspace ws(map.tree(), 4);
+  EXPECT_FALSE(map.swivel_toward_pole(map.bone_of(find(s, "LeftHand")), {0, 0, 5}, params.data(), ws));
+  EXPECT_EQ(params, before);
+  EXPECT_EQ(map.pole_upper_bone(map.bone_of(find(s, "Spine"))), -1);  // one bone below the root: no limb
+}
+
 TEST(SkeletonTree, PerFrameCallsAllocateNothing) {
   Skel s = body();
   std::vector<int> order;

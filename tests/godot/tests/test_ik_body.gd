@@ -37,6 +37,11 @@ func _effector(bone: String, target: Node3D, priority := 1, position_weight := 1
 	return e
 
 
+func _pole(e: IKBodyEffector, pole: Node3D) -> IKBodyEffector:
+	e.pole_target = NodePath("../../" + String(pole.name))
+	return e
+
+
 func _target(name: String, t: Transform3D) -> Node3D:
 	var n := Node3D.new()
 	n.name = name
@@ -383,6 +388,7 @@ func test_hostile_configuration_problems_are_named_with_their_fix() -> void:
 		[[null], "Hips", "effectors\\[0\\] is empty or not an IKBodyEffector"],
 		[[_effector("LeftHand", t)], "", "root_bone is empty"],
 		[[_effector("LeftHand", t)], "Nope", "root_bone 'Nope' is not a bone"],
+		[[_pole(_effector("Spine", t), t)], "Hips", "pole_target needs a limb"],
 	]
 	for c in cases:
 		var rig := _body_with(c[0], c[1])
@@ -495,3 +501,37 @@ func test_inspector_action_scripts_compile_and_name_real_properties() -> void:
 	check(body.setup_humanoid(), "setup_humanoid() ran")
 	for property in before:
 		check(body.get(property) != before[property], property + " was replaced (so undo must restore it)")
+
+
+# A pole turns the limb's bend plane: the same crouch with the left knee's pole far out to the left
+# (+X) ends with that knee farther out than without it, the feet planted either way.
+func test_pole_target_turns_the_knee_toward_it() -> void:
+	var knee_x := []
+	for with_pole in [false, true]:
+		var skel := _humanoid()
+		case_root.add_child(skel)
+		var body := IKBody.new()
+		skel.add_child(body)
+		body.setup_humanoid()
+		var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
+		var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+		var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
+		var targets := {"Hips": hips.translated(Vector3(0, -0.15, 0)), "LeftFoot": lfoot, "RightFoot": rfoot}
+		for e in body.effectors:
+			if targets.has(e.bone_name):
+				e.target = body.get_path_to(_target("T%s%s" % [e.bone_name, with_pole], targets[e.bone_name]))
+			if with_pole and e.bone_name == "LeftFoot":
+				var knee := skel.get_bone_global_pose(skel.find_bone("LeftLowerLeg")).origin
+				e.pole_target = body.get_path_to(_target("Pole", Transform3D(Basis(), knee + Vector3(1.0, 0, 0.3))))
+		body.max_iterations = 300
+		var cap := {}
+		for frame in 4:  # a straight rest leg takes the pole once it is bent (from frame 2)
+			cap = await _capture(skel, body)
+		if not check(not cap.is_empty(), "skeleton_updated came"):
+			return
+		check(_all_finite(cap), "every bone pose finite")
+		check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-3, "left foot planted (m), pole %s" % with_pole)
+		knee_x.append(_origin(skel, cap, "LeftLowerLeg").x - _origin(skel, cap, "LeftFoot").x)
+		check(_warnings(body).find("pole_target") < 0, "no pole warning: " + _warnings(body))
+		skel.free()
+	check(knee_x[1] > knee_x[0] + 0.01, "the pole turned the knee out: %.4f -> %.4f m" % knee_x)
