@@ -664,9 +664,8 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     return false;
   }
 
-  // Poles: the start pose's and the posture's limb planes turned toward them.
+  // Poles: the start pose's limb planes turned toward them.
   const gdx::Node self = gdx::Node::unchecked(owner_);
-  posture_ = anim_params_;
   for (const Slot& slot : slots_) {
     if (slot.pole_end < 0 || !slot.effector->is_enabled()) continue;
     const gdx::Node3D pole = gdx::Node3D::cast(self.get_node_or_null(slot.effector->get_pole_target()));
@@ -685,8 +684,11 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
       continue;
     }
     mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, params_.data(), workspace_);
-    mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, posture_.data(), workspace_);
   }
+  // The posture task keeps the freedom the effectors leave where the start pose has it (the
+  // animation, or the last solution while the animation stands still), poles applied: the
+  // smallest correction, and no drift between frames.
+  posture_ = params_;
 
   // The animated effector poses: what an effector with influence < 1 blends from.
   const Tree& tree = mapping_.tree();

@@ -32,8 +32,9 @@ class IKBody {
   static constexpr int64_t kDefaultMaxIterations = 100;
   static constexpr double kDefaultTolerance = 1e-4;             // m
   static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
-  // Each level a goal of the posture pull closes per iteration (see TreeProblem::posture): the
-  // redundant freedom drifts back toward the animated pose instead of wandering.
+  // The share of the distance to the posture (the start pose) one iteration closes in the freedom
+  // the effectors leave (TreeProblem::posture_stiffness): the redundant joints stay near the
+  // start instead of wandering.
   static constexpr double kPostureStiffness = 0.1;
 
   static void register_class(gdx::ClassRecord& record);
@@ -146,7 +147,7 @@ class IKBody {
   std::vector<BonePose> bone_poses_;
   std::vector<glm::dquat> rotations_;
   Eigen::VectorXd params_, anim_params_, previous_anim_params_, last_params_;
-  Eigen::VectorXd posture_;  // the animated pose, limb planes turned toward their poles
+  Eigen::VectorXd posture_;  // the start pose, limb planes turned toward their poles
   std::vector<double> posture_stiffness_;
   std::vector<TreeGoal> goals_;
   std::vector<int> goal_slot_;       // per goal: its slot
