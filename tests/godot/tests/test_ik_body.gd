@@ -585,3 +585,56 @@ func test_animation_player_pose_is_corrected_not_replaced() -> void:
 	var right: Quaternion = (cap["locals"][elbow_r] as Transform3D).basis.get_rotation_quaternion()
 	check_le(_angle(right, bent_r), 1e-5, "the right elbow keeps the animation's rotation (rad)")
 	check_eq(body.get_last_reason(), "converged", "reason")
+
+
+# A scene with a set-up IKBody saved as .tscn and loaded back: the rig (effectors and joints as
+# sub-resources) and a target path survive, and the loaded body reaches.
+func test_scene_round_trip_keeps_the_rig() -> void:
+	var root := Node3D.new()
+	root.name = "Character"
+	var skel := _humanoid()
+	root.add_child(skel)
+	skel.owner = root
+	var body := IKBody.new()
+	body.name = "IKBody"
+	skel.add_child(body)
+	body.owner = root
+	check(body.setup_humanoid(), "setup_humanoid()")
+	var target := Node3D.new()
+	target.name = "HandTarget"
+	root.add_child(target)
+	target.owner = root
+	var hand_rest := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
+	target.position = hand_rest + Vector3(-0.05, -0.05, 0.08)
+	for e in body.effectors:
+		if e.bone_name == "LeftHand":
+			e.target = body.get_path_to(target)
+	var packed := PackedScene.new()
+	check_eq(packed.pack(root), OK, "pack")
+	var path := "user://ik_body_round_trip.tscn"
+	check_eq(ResourceSaver.save(packed, path), OK, "save")
+	root.free()
+	var loaded: PackedScene = ResourceLoader.load(path, "", ResourceLoader.CACHE_MODE_IGNORE)
+	if not check(loaded != null, "load"):
+		return
+	var inst := loaded.instantiate()
+	case_root.add_child(inst)
+	var body2: IKBody = inst.get_node("Skeleton/IKBody")
+	var skel2: Skeleton3D = inst.get_node("Skeleton")
+	check_eq(body2.root_bone, "Hips", "root_bone survives")
+	check(body2.floating_root, "floating_root survives")
+	check_eq(body2.effectors.size(), 6, "effectors survive")
+	check_eq(body2.joints.size(), 8, "joints survive")
+	var hand: IKBodyEffector = null
+	for e in body2.effectors:
+		if e.bone_name == "LeftHand":
+			hand = e
+	if not check(hand != null, "the LeftHand effector survives"):
+		return
+	check_eq(hand.priority, 2, "its priority")
+	check_eq(hand.target, NodePath("../../HandTarget"), "its target path")
+	var cap := await _capture(skel2, body2)
+	if check(not cap.is_empty(), "skeleton_updated came"):
+		check_le(_origin(skel2, cap, "LeftHand").distance_to(hand_rest + Vector3(-0.05, -0.05, 0.08)),
+				body2.tolerance + FLOAT_SLACK, "the loaded body reaches (m)")
+	DirAccess.remove_absolute(ProjectSettings.globalize_path(path))
