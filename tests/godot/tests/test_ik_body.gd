@@ -638,3 +638,51 @@ func test_scene_round_trip_keeps_the_rig() -> void:
 		check_le(_origin(skel2, cap, "LeftHand").distance_to(hand_rest + Vector3(-0.05, -0.05, 0.08)),
 				body2.tolerance + FLOAT_SLACK, "the loaded body reaches (m)")
 	DirAccess.remove_absolute(ProjectSettings.globalize_path(path))
+
+
+# Tracking: the set-up humanoid with feet planted and both hands following circles in front of the
+# chest for 60 frames (continuing from the last solution): every frame the feet hold, the hands
+# reach, and no bone jumps (a pop: a bone moving more than 5 cm between frames while the targets
+# move 1.3 cm).
+func test_tracking_moving_hands_without_pops() -> void:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	body.setup_humanoid()
+	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
+	var chest := skel.get_bone_global_pose(skel.find_bone("UpperChest")).origin
+	var lh := _target("LH", Transform3D())
+	var rh := _target("RH", Transform3D())
+	var targets := {"LeftFoot": _target("LF", lfoot), "RightFoot": _target("RF", rfoot), "LeftHand": lh, "RightHand": rh}
+	for e in body.effectors:
+		if targets.has(e.bone_name):
+			e.target = body.get_path_to(targets[e.bone_name])
+	var previous := []
+	var worst_jump := 0.0
+	var worst_hand := 0.0
+	var worst_foot := 0.0
+	for frame in 60:
+		var a := TAU * frame / 30.0
+		lh.position = chest + Vector3(0.15 + 0.06 * cos(a), -0.1 + 0.06 * sin(a), 0.25)
+		rh.position = chest + Vector3(-0.15 - 0.06 * cos(a), -0.1 + 0.06 * sin(a), 0.25)
+		var cap := await _capture(skel, body)
+		if not check(not cap.is_empty(), "frame %d: skeleton_updated came" % frame):
+			return
+		if not check(_all_finite(cap), "frame %d: every bone pose finite" % frame):
+			return
+		worst_foot = maxf(worst_foot, maxf(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin),
+				_origin(skel, cap, "RightFoot").distance_to(rfoot.origin)))
+		worst_hand = maxf(worst_hand, maxf(_origin(skel, cap, "LeftHand").distance_to(lh.position),
+				_origin(skel, cap, "RightHand").distance_to(rh.position)))
+		var origins := []
+		for t in cap["globals"]:
+			origins.append((t as Transform3D).origin)
+		if not previous.is_empty():
+			for i in origins.size():
+				worst_jump = maxf(worst_jump, (origins[i] as Vector3).distance_to(previous[i]))
+		previous = origins
+	check_le(worst_foot, 1e-3, "feet planted over 60 frames (m)")
+	check_le(worst_hand, 1e-3, "hands on their targets over 60 frames (m)")
+	check_le(worst_jump, 0.05, "no pop: the largest bone move between frames (m)")
