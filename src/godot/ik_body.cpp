@@ -490,10 +490,14 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
     bone.name = skel.get_bone_name(b).utf8();
     bone.skeleton_bone = b;
     bone.parent = k == 0 ? -1 : index_of[size_t(parents[size_t(b)])];
-    bone.rest_basis_in_parent = glm::dmat3(gdx::to_glm(skel.get_bone_rest(b)));
-    bone.pose.position = gdx::to_glm(skel.get_bone_pose_position(b));
-    bone.pose.rotation = gdx::to_glm(skel.get_bone_pose_rotation(b));
-    bone.pose.scale = gdx::to_glm(skel.get_bone_pose_scale(b));
+    // The body is built from the rests (what the configuration is); the pose of each frame, which
+    // an animation may spoil for a while, reshapes it per frame (SkeletonTree::update_pose).
+    const glm::dmat4 rest = gdx::to_glm(skel.get_bone_rest(b));
+    bone.rest_basis_in_parent = glm::dmat3(rest);
+    bone.pose.position = glm::dvec3(rest[3]);
+    bone.pose.rotation = rotation_of_basis(bone.rest_basis_in_parent);
+    bone.pose.scale = glm::dvec3(glm::length(glm::dvec3(rest[0])), glm::length(glm::dvec3(rest[1])),
+                                 glm::length(glm::dvec3(rest[2])));
     if (joint_of[size_t(b)] != nullptr) bone.joint = joint_of[size_t(b)]->settings();
     desc->bones.push_back(bone);
   }

@@ -686,3 +686,25 @@ func test_tracking_moving_hands_without_pops() -> void:
 	check_le(worst_foot, 1e-3, "feet planted over 60 frames (m)")
 	check_le(worst_hand, 1e-3, "hands on their targets over 60 frames (m)")
 	check_le(worst_jump, 0.05, "no pop: the largest bone move between frames (m)")
+
+
+# A non-finite bone pose coming in (a broken animation): one error naming the bone, nothing written
+# by the body (the skeleton shows what it was given), no crash; once the pose is finite the body
+# solves again.
+func test_hostile_non_finite_incoming_pose_is_refused_by_name() -> void:
+	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
+	var rig := _body_with([_effector("LeftHand", t)])
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	var lower := skel.find_bone("LeftLowerArm")
+	var rest_position := skel.get_bone_pose_position(lower)
+	expect_error("bone 'LeftLowerArm': pose position .* is not finite", 1)
+	skel.set_bone_pose_position(lower, Vector3(NAN, 0, 0))
+	await _capture(skel, body, true)
+	check_eq(body.get_last_reason(), "invalid_input", "the frame was refused")
+	check(body.get_last_result()["message"].contains("LeftLowerArm"), "the result names the bone")
+	skel.set_bone_pose_position(lower, rest_position)
+	var cap := await _capture(skel, body)
+	if check(not cap.is_empty(), "skeleton_updated came"):
+		check(_all_finite(cap), "every bone pose finite once the input is")
+		check(body.is_last_usable(), "the body solves again")
