@@ -191,8 +191,9 @@ void IKBody::set_joints(const gdx::Array& joints) {
 void IKBody::set_solver(int64_t solver) {
   const int64_t used = std::clamp<int64_t>(solver, 0, kSolverAuto);
   if (used != solver) report_clamped(kClass, "solver", "0..6 (IKBody.SOLVER_*)", double(solver), double(used));
+  if (used == solver_) return;
   solver_ = used;
-  gdx::Node::unchecked(owner_).update_configuration_warnings();
+  mark_dirty();  // a solver that takes no trees stops the body (a configuration warning)
 }
 
 void IKBody::set_max_iterations(int64_t n) {
@@ -556,11 +557,13 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
   configure(skel, problems, &desc, &slots_, &held_);
   for (const Problem& p : problems)
     if (p.fatal) body_problems_.push_back(p);
+  bool built = false;
   if (body_problems_.empty() && !desc.bones.empty()) {
-    const Message built = mapping_.build(desc);
-    if (!built.empty()) body_problems_.push_back({"joints", std::string("IKBody: cannot build the body: ") + built.c_str()});
+    const Message error = mapping_.build(desc);
+    if (!error.empty()) body_problems_.push_back({"joints", std::string("IKBody: cannot build the body: ") + error.c_str()});
+    built = error.empty();
   }
-  if (body_problems_.empty() && mapping_.valid()) {
+  if (built) {
     base_bone_ = int(skel.get_bone_parent(mapping_.skeleton_bone(0)));
     const int n = mapping_.bone_count();
     const int dofs = mapping_.tree().dof_count();

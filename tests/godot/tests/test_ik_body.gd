@@ -396,11 +396,14 @@ func test_hostile_configuration_problems_are_named_with_their_fix() -> void:
 		[[_effector("LeftHand", t)], "", "root_bone is empty"],
 		[[_effector("LeftHand", t)], "Nope", "root_bone 'Nope' is not a bone"],
 		[[_pole(_effector("Spine", t), t)], "Hips", "pole_target needs a limb"],
+		[[_effector("LeftHand", t)], "Hips", "solver .* does not solve trees", IKBody.SOLVER_TWO_BONE],
 	]
 	for c in cases:
 		var rig := _body_with(c[0], c[1])
 		var skel: Skeleton3D = rig["skeleton"]
 		var body: IKBody = rig["body"]
+		if c.size() > 3:
+			body.solver = c[3]
 		var w := _warnings(body)
 		var regex := RegEx.create_from_string(c[2])
 		check(regex.search(w) != null, "warning matches '%s'; got: %s" % [c[2], w])
