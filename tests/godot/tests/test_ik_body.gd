@@ -711,3 +711,44 @@ func test_hostile_non_finite_incoming_pose_is_refused_by_name() -> void:
 	if check(not cap.is_empty(), "skeleton_updated came"):
 		check(_all_finite(cap), "every bone pose finite once the input is")
 		check(body.is_last_usable(), "the body solves again")
+
+
+# The gizmo's drawing of a body (addons/ikchain/ik_body_drawer.gd, dispatched by the gizmo's line
+# cache): solved bones, limits, effectors by level, targets with their error lines, poles.
+func test_gizmo_drawing_of_the_set_up_body() -> void:
+	var BodyDrawer: GDScript = load("res://addons/ikchain/ik_body_drawer.gd")
+	var Lines: GDScript = load("res://addons/ikchain/gizmo/ik_chain_gizmo_lines.gd")
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	body.setup_humanoid()
+	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+	var hand_goal := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin + Vector3(0, -0.1, 0.1)
+	for e in body.effectors:
+		if e.bone_name == "LeftFoot":
+			e.target = body.get_path_to(_target("LF", lfoot))
+			e.pole_target = body.get_path_to(_target("Pole", Transform3D(Basis(), lfoot.origin + Vector3(0.5, 0.5, 1))))
+		if e.bone_name == "LeftHand":
+			e.target = body.get_path_to(_target("LH", Transform3D(Basis(), hand_goal)))
+	var drawn := {}
+	var grab := func():
+		if drawn.is_empty():
+			drawn["lines"] = BodyDrawer.build(body)
+			drawn["dispatched"] = Lines.build(body)
+			drawn["hand"] = skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
+	skel.skeleton_updated.connect(grab)
+	for i in 3:
+		await process_frame
+	skel.skeleton_updated.disconnect(grab)
+	if not check(not drawn.is_empty(), "skeleton_updated came"):
+		return
+	var lines: Dictionary = drawn["lines"]
+	check_eq(lines["problems"].size(), 0, "nothing left undrawn: %s" % [lines["problems"]])
+	check_eq(lines["bones"].size(), 2 * (body.get_body_bones().size() - 1), "one segment per solved bone below the root")
+	check(lines["bones"].has(drawn["hand"]), "the bones are drawn at the solved pose")
+	check(lines["limits"].size() > 0, "the joints' limits are drawn")
+	check_eq(lines["goals"].size(), 6 * 3 * 2, "a cross at each of the six effectors")
+	check_eq(lines["target"].size(), 2 * (3 * 2 + 2), "two targets: a cross and the error line each")
+	check_eq(lines["pole"].size(), 3 * 2 + 2, "the pole: a cross and the line from the knee")
+	check_eq(drawn["dispatched"]["bones"], lines["bones"], "the gizmo's line cache draws an IKBody with the body drawer")

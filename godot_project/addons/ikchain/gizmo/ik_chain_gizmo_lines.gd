@@ -1,8 +1,8 @@
 @tool
 extends RefCounted
-## The gizmo's lines per IKChain (ik_chain_drawer.gd), built while the chain's Skeleton3D emits
-## `skeleton_updated`: the only moment the solved pose is visible (the skeleton restores the
-## unmodified pose afterwards, before the deferred gizmo redraw runs).
+## The gizmo's lines per IKChain (ik_chain_drawer.gd) or IKBody (ik_body_drawer.gd), built while
+## the node's Skeleton3D emits `skeleton_updated`: the only moment the solved pose is visible (the
+## skeleton restores the unmodified pose afterwards, before the deferred gizmo redraw runs).
 ##
 ## One connection per Skeleton3D, shared by all the IKChains of that skeleton that are watched:
 ## connecting one per chain would connect the same method twice to one signal (Godot refuses the
@@ -14,6 +14,7 @@ extends RefCounted
 signal lines_changed(ik: Node3D)
 
 const Drawer := preload("res://addons/ikchain/ik_chain_drawer.gd")
+const BodyDrawer := preload("res://addons/ikchain/ik_body_drawer.gd")
 
 var _lines := {}  # IKChain instance id -> the drawer's Dictionary, global space
 var _chains := {}  # IKChain instance id -> the Skeleton3D it was watched on
@@ -61,7 +62,12 @@ func watched_ids() -> Array:
 ## `ik`'s lines as built in the last skeleton update, else built now (the unmodified pose).
 func lines_of(ik: Node3D) -> Dictionary:
 	var id := ik.get_instance_id()
-	return _lines[id] if _lines.has(id) else Drawer.build(ik)
+	return _lines[id] if _lines.has(id) else build(ik)
+
+
+## The drawing of an IKChain (ik_chain_drawer.gd) or an IKBody (ik_body_drawer.gd).
+static func build(ik: Node3D) -> Dictionary:
+	return BodyDrawer.build(ik) if ik.is_class("IKBody") else Drawer.build(ik)
 
 
 func _drop_unused_connections() -> void:
@@ -89,5 +95,5 @@ func _on_skeleton_updated(skel_id: int) -> void:
 		if ik == null or not ik.is_inside_tree() or ik.get_parent() != skel:
 			unwatch(id)
 			continue
-		_lines[id] = Drawer.build(ik)
+		_lines[id] = build(ik)
 		lines_changed.emit(ik)

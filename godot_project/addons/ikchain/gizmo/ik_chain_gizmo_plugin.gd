@@ -1,7 +1,9 @@
 @tool
 extends EditorNode3DGizmoPlugin
 ## The IKChain gizmo: for each selected IKChain, the lines of ik_chain_drawer.gd (bones, joint
-## limits, target, pole, extra goals), drawn on top of the scene like Godot's own IK gizmos.
+## limits, target, pole, extra goals), and for each selected IKBody those of ik_body_drawer.gd
+## (bones, limits, effectors by level, targets, poles), drawn on top of the scene like Godot's own
+## IK gizmos.
 ##
 ## The skeleton shows the solved pose only while it emits `skeleton_updated` (it restores the
 ## unmodified pose afterwards, before the deferred gizmo redraw runs), so the lines are built
@@ -35,7 +37,7 @@ func _get_gizmo_name() -> String:
 
 
 func _has_gizmo(node: Node3D) -> bool:
-	return node.is_class("IKChain")
+	return node.is_class("IKChain") or node.is_class("IKBody")
 
 
 func _redraw(gizmo: EditorNode3DGizmo) -> void:
@@ -62,7 +64,7 @@ func _on_selection_changed() -> void:
 	for id in _lines.watched_ids():
 		ids[id] = true
 	for node in EditorInterface.get_selection().get_selected_nodes():
-		if node.is_class("IKChain"):
+		if node.is_class("IKChain") or node.is_class("IKBody"):
 			ids[node.get_instance_id()] = true
 	for id in ids:
 		var ik := instance_from_id(id) as Node3D
