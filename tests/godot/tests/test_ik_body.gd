@@ -752,3 +752,45 @@ func test_gizmo_drawing_of_the_set_up_body() -> void:
 	check_eq(lines["target"].size(), 2 * (3 * 2 + 2), "two targets: a cross and the error line each")
 	check_eq(lines["pole"].size(), 3 * 2 + 2, "the pole: a cross and the line from the knee")
 	check_eq(drawn["dispatched"]["bones"], lines["bones"], "the gizmo's line cache draws an IKBody with the body drawer")
+
+
+# A character placed in the world (moved, turned, scaled 1.5x): targets are world positions, and the
+# effectors reach them in the world.
+func test_reach_with_a_moved_turned_scaled_skeleton() -> void:
+	var rng := RandomNumberGenerator.new()
+	rng.seed = 1502
+	var rotations := {}
+	for bone in LIMB_BONES:
+		rotations[bone] = _random_rotation(rng, 0.4)
+	var posed := _posed_globals(rotations)
+	var place := Node3D.new()
+	place.name = "Place"
+	place.transform = Transform3D(Basis(Vector3(0.3, 1, 0.2).normalized(), 0.7).scaled(Vector3(1.5, 1.5, 1.5)),
+			Vector3(4, -1, 2.5))
+	case_root.add_child(place)
+	var skel := _humanoid()
+	place.add_child(skel)
+	var body := IKBody.new()
+	body.root_bone = "Hips"
+	body.floating_root = true
+	var names := ["LeftHand", "RightFoot", "Head"]
+	var effectors: Array[IKBodyEffector] = []
+	for bone in names:
+		var t := _target("T" + bone, place.transform * (posed[bone] as Transform3D))
+		var e := _effector(bone, t, 1, 1.0, 1.0)
+		e.target = body.get_path_to(t) if body.is_inside_tree() else NodePath("../../../" + String(t.name))
+		effectors.append(e)
+	body.effectors = effectors
+	body.max_iterations = 200
+	skel.add_child(body)
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check(_all_finite(cap), "every bone pose finite")
+	for bone in names:
+		var world := skel.global_transform * (cap["globals"][skel.find_bone(bone)] as Transform3D)
+		var want := place.transform * (posed[bone] as Transform3D)
+		# tolerance is in skeleton units (the solve's space): 1.5x in the world.
+		check_le(world.origin.distance_to(want.origin), 1.5 * body.tolerance + FLOAT_SLACK, bone + " reached in the world (m)")
+		check_le(_angle(world.basis.get_rotation_quaternion(), want.basis.get_rotation_quaternion()),
+				body.orientation_tolerance + 1e-5, bone + " rotation in the world (rad)")
