@@ -894,7 +894,7 @@ bool IKBody::setup_humanoid() {
     j->set_hinge_max(150.0 * kDeg);
     joints.push_back(held);
   };
-  auto add_cone = [&](const char* bone, double cone_deg, double twist_deg) {
+  auto add_cone = [&](const char* bone, double cone_deg, double twist_deg, double motion_cost) {
     gdx::ObjectPtr object = nullptr;
     const gdx::Variant held = new_resource("IKChainJoint", object);
     IKChainJoint* j = gdx::instance_of<IKChainJoint>(object, gdx::String("IKChainJoint"));
@@ -905,16 +905,18 @@ bool IKBody::setup_humanoid() {
     j->set_twist_limit_enabled(true);
     j->set_twist_min(-twist_deg * kDeg);
     j->set_twist_max(twist_deg * kDeg);
+    j->set_motion_cost(motion_cost);
     joints.push_back(held);
   };
   add_hinge("LeftLowerLeg", "LeftFoot", false);
   add_hinge("RightLowerLeg", "RightFoot", false);
   add_hinge("LeftLowerArm", "LeftHand", true);
   add_hinge("RightLowerArm", "RightHand", true);
-  add_cone("Spine", 30.0, 30.0);
-  add_cone("Chest", 30.0, 30.0);
-  add_cone("UpperChest", 30.0, 30.0);
-  add_cone("Neck", 40.0, 60.0);
+  // The spine bends reluctantly (motion cost 2): arms reach first, the spine joins when they cannot.
+  add_cone("Spine", 30.0, 30.0, 2.0);
+  add_cone("Chest", 30.0, 30.0, 2.0);
+  add_cone("UpperChest", 30.0, 30.0, 2.0);
+  add_cone("Neck", 40.0, 60.0, 1.0);
 
   set_root_bone(gdx::String("Hips"));
   set_floating_root(true);

@@ -62,6 +62,8 @@ void IKChainJoint::register_class(gdx::ClassRecord& record) {
   b.method("get_twist_max", &IKChainJoint::get_twist_max);
   b.method("set_twist_axis", &IKChainJoint::set_twist_axis, {"axis"});
   b.method("get_twist_axis", &IKChainJoint::get_twist_axis);
+  b.method("set_motion_cost", &IKChainJoint::set_motion_cost, {"cost"});
+  b.method("get_motion_cost", &IKChainJoint::get_motion_cost);
 
   b.constant("JointType", "JOINT_BALL", JOINT_BALL);
   b.constant("JointType", "JOINT_HINGE", JOINT_HINGE);
@@ -88,6 +90,9 @@ void IKChainJoint::register_class(gdx::ClassRecord& record) {
   b.property({"twist_max", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "-180,180,0.1,radians_as_degrees"},
              "set_twist_max", "get_twist_max");
   b.property({"twist_axis", GDEXTENSION_VARIANT_TYPE_VECTOR3}, "set_twist_axis", "get_twist_axis");
+  b.group("Body", "");
+  b.property({"motion_cost", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0.01,100,0.01,exp"},
+             "set_motion_cost", "get_motion_cost");
 }
 
 const IKChainJoint* IKChainJoint::from_object(gdx::ObjectPtr object) {
@@ -144,6 +149,12 @@ void IKChainJoint::set_twist_min(double radians) {
 }
 void IKChainJoint::set_twist_max(double radians) {
   settings_.twist_max = clamp_angle("twist_max", "[-pi, pi] rad", radians, -kPi, kPi, settings_.twist_max);
+  changed();
+}
+void IKChainJoint::set_motion_cost(double cost) {
+  const double used = std::isnan(cost) ? settings_.motion_cost : std::clamp(cost, 0.01, 100.0);
+  if (used != cost) report_clamped(kClass, "motion_cost", "[0.01, 100]", cost, used);
+  settings_.motion_cost = used;
   changed();
 }
 void IKChainJoint::set_twist_axis(const gdx::Vector3& axis) {

@@ -51,6 +51,8 @@ class IKChainJoint {
   double get_twist_max() const { return settings_.twist_max; }
   void set_twist_axis(const gdx::Vector3& axis);
   gdx::Vector3 get_twist_axis() const { return gdx::from_glm(settings_.twist_axis_in_bone); }
+  void set_motion_cost(double cost);
+  double get_motion_cost() const { return settings_.motion_cost; }
 
   // The settings as the skeleton mapping takes them (the properties are stored there, so the
   // defaults and the mapping exist once).

@@ -76,6 +76,9 @@ struct JointSettings {
   double twist_min = -3.14159265358979323846;  // within [-pi, pi]
   double twist_max = 3.14159265358979323846;
   glm::dvec3 twist_axis_in_bone{0.0, 1.0, 0.0};
+  // How reluctantly a tree solve moves this joint relative to others (TreeJointDesc::motion_cost;
+  // > 0, 1 = as any joint). Chains ignore it.
+  double motion_cost = 1.0;
 };
 
 struct ChainBoneDesc {

@@ -118,8 +118,9 @@ Message SkeletonTree::build_tree() {
       return Message::format("joint '%s': a floating root must be a ball joint; remove its hinge IKChainJoint or turn "
                              "off floating_root",
                              name);
-    if (!(b.motion_cost > 0.0) || !std::isfinite(b.motion_cost))
-      return Message::format("joint '%s': motion cost (%g) must be finite and > 0", name, b.motion_cost);
+    if (!(b.joint.motion_cost > 0.0) || !std::isfinite(b.joint.motion_cost))
+      return Message::format("joint '%s': motion_cost (%g) must be finite and > 0; fix it in the bone's IKChainJoint",
+                             name, b.joint.motion_cost);
     const glm::dvec3 parent_scale = i == 0 ? glm::dvec3(1.0) : scale_of[size_t(b.parent)];
     scale_of[size_t(i)] = parent_scale * b.pose.scale;
     if (non_uniform_bone_ < 0 && !is_uniform(b.pose.scale)) non_uniform_bone_ = i;
@@ -132,7 +133,7 @@ Message SkeletonTree::build_tree() {
     j.rest_rotation = rotation_of_basis(b.rest_basis_in_parent);
     j.axis = core.hinge_axis;
     j.limits = core.limits;
-    j.motion_cost = b.motion_cost;
+    j.motion_cost = b.joint.motion_cost;
     builder.add_joint(j);
   }
   for (int e : desc_.effector_bones) {

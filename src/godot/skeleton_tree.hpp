@@ -44,8 +44,7 @@ struct TreeBoneDesc {
   int parent = -1;         // index of the parent in the desc's bone list (< own index); -1 for bone 0 only
   glm::dmat3 rest_basis_in_parent{1.0};  // the bone rest's basis (its rotation part is used)
   BonePose pose;                         // the current pose (position and scale shape the tree)
-  JointSettings joint;                   // a free ball unless an IKChainJoint names the bone
-  double motion_cost = 1.0;              // > 0 (tree.hpp)
+  JointSettings joint;                   // a free ball unless an IKChainJoint names the bone (its motion_cost too)
 };
 
 struct SkeletonTreeDesc {

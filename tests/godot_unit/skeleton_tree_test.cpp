@@ -287,6 +287,7 @@ JointSettings knee_hinge(const std::string& name) {
   if (name == "Spine") {
     j.cone_limit_enabled = true;
     j.cone_angle = 0.3;
+    j.motion_cost = 3.0;
   }
   return j;
 }
@@ -301,6 +302,8 @@ TEST(SkeletonTree, JointSettingsBecomeHingesAndConesAndTheWarmStartRespectsThem)
   ASSERT_GE(knee, 0);
   EXPECT_EQ(map.tree().joint_type(knee), JointType::kHinge);
   EXPECT_TRUE(map.tree().limits(spine).has_cone_limit);
+  EXPECT_EQ(map.tree().motion_cost(spine), 3.0);
+  EXPECT_EQ(map.tree().motion_cost(knee), 1.0);
   // An animated knee bent backwards and a spine bent beyond its cone start on their limits.
   s.poses[size_t(find(s, "LeftLowerLeg"))].rotation = s.rests[size_t(find(s, "LeftLowerLeg"))] * axis_angle(-0.4, {1, 0, 0});
   s.poses[size_t(find(s, "Spine"))].rotation = s.rests[size_t(find(s, "Spine"))] * axis_angle(0.9, {1, 0, 0});

@@ -794,3 +794,31 @@ func test_reach_with_a_moved_turned_scaled_skeleton() -> void:
 		check_le(world.origin.distance_to(want.origin), 1.5 * body.tolerance + FLOAT_SLACK, bone + " reached in the world (m)")
 		check_le(_angle(world.basis.get_rotation_quaternion(), want.basis.get_rotation_quaternion()),
 				body.orientation_tolerance + 1e-5, bone + " rotation in the world (rad)")
+
+
+# IKChainJoint.motion_cost: a costly spine moves less for the same reach (the arm does more).
+func test_motion_cost_makes_the_spine_reluctant() -> void:
+	var bend := []
+	for cost in [1.0, 50.0]:
+		var skel := _humanoid()
+		case_root.add_child(skel)
+		var hand := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
+		var body := IKBody.new()
+		body.root_bone = "Hips"
+		body.deterministic = true
+		var spine := IKChainJoint.new()
+		spine.bone_name = "Spine"
+		spine.motion_cost = cost
+		body.joints = [spine]
+		body.effectors = [_effector("LeftHand", _target("LH%d" % cost, Transform3D(Basis(), hand + Vector3(-0.15, -0.2, 0.2))))]
+		skel.add_child(body)
+		var cap := await _capture(skel, body)
+		if not check(not cap.is_empty(), "skeleton_updated came"):
+			return
+		check_le(_origin(skel, cap, "LeftHand").distance_to(hand + Vector3(-0.15, -0.2, 0.2)), body.tolerance + FLOAT_SLACK,
+				"cost %.0f: the hand reaches (m)" % cost)
+		var i := skel.find_bone("Spine")
+		bend.append(_angle((cap["locals"][i] as Transform3D).basis.get_rotation_quaternion(),
+				skel.get_bone_rest(i).basis.get_rotation_quaternion()))
+		skel.free()
+	check(bend[1] < 0.5 * bend[0], "the costly spine bends less: %.4f -> %.4f rad" % bend)
