@@ -35,7 +35,8 @@ const char* solver_constant(int64_t value) {
                                            "SOLVER_BFGS",     "SOLVER_FABRIK", "SOLVER_AUTO"};
   return kNames[value];
 }
-static_assert(kSolverKindCount == IKBody::kSolverAuto, "IKBody.Solver values are the core's SolverKind values, then Auto");
+static_assert(kSolverKindCount == IKBody::kSolverAuto,
+              "IKBody.Solver values are the core's SolverKind values, then Auto");
 
 const char* reason_name(TerminationReason r) {
   switch (r) {
@@ -362,7 +363,8 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
     }
     if (!e->is_enabled()) continue;
     if (e->bone_name().empty()) {
-      problems.push_back({"effectors", "IKBody: " + where + " has no bone_name; set it to a bone under root_bone.", false});
+      problems.push_back(
+          {"effectors", "IKBody: " + where + " has no bone_name; set it to a bone under root_bone.", false});
       continue;
     }
     const int bone = int(skel.find_bone(text(e->bone_name())));
@@ -398,10 +400,11 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
       }
     }
     if (e->get_priority() < IKBodyEffector::kMinPriority || e->get_priority() > IKBodyEffector::kMaxPriority) {
-      const int64_t used = std::clamp<int64_t>(e->get_priority(), IKBodyEffector::kMinPriority, IKBodyEffector::kMaxPriority);
+      const int64_t used =
+          std::clamp<int64_t>(e->get_priority(), IKBodyEffector::kMinPriority, IKBodyEffector::kMaxPriority);
       problems.push_back({"effectors", "IKBody: " + where + ": priority " + std::to_string(e->get_priority()) +
-                                           " is out of range 1..4 (1 = highest); it is used as " + std::to_string(used) +
-                                           ". Set priority between 1 and 4.",
+                                           " is out of range 1..4 (1 = highest); it is used as " +
+                                           std::to_string(used) + ". Set priority between 1 and 4.",
                           false});
     }
     if (!(e->get_position_weight() > 0.0) && !(e->get_rotation_weight() > 0.0))
@@ -560,7 +563,8 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
   bool built = false;
   if (body_problems_.empty() && !desc.bones.empty()) {
     const Message error = mapping_.build(desc);
-    if (!error.empty()) body_problems_.push_back({"joints", std::string("IKBody: cannot build the body: ") + error.c_str()});
+    if (!error.empty())
+      body_problems_.push_back({"joints", std::string("IKBody: cannot build the body: ") + error.c_str()});
     built = error.empty();
   }
   if (built) {
@@ -728,7 +732,8 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
       continue;
     }
     const double influence = e.get_influence();
-    const int level = int(std::clamp<int64_t>(e.get_priority(), IKBodyEffector::kMinPriority, IKBodyEffector::kMaxPriority));
+    const int level =
+        int(std::clamp<int64_t>(e.get_priority(), IKBodyEffector::kMinPriority, IKBodyEffector::kMaxPriority));
     if (wp > 0.0) {
       const glm::dvec3 animated = tree_effector_position(tree, workspace_, slot.core_effector);
       const glm::dvec3 target = mapping_.point_in_tree(base.point_in_base(glm::dvec3(target_m[3])));
@@ -781,13 +786,15 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     have_last_ = false;
     return false;
   }
-  for (int i = 0; i < n; ++i) skel.set_bone_pose_rotation(mapping_.skeleton_bone(i), gdx::from_glm(rotations_[size_t(i)]));
+  for (int i = 0; i < n; ++i)
+    skel.set_bone_pose_rotation(mapping_.skeleton_bone(i), gdx::from_glm(rotations_[size_t(i)]));
   if (mapping_.floating_root()) skel.set_bone_pose_position(mapping_.skeleton_bone(0), gdx::from_glm(root_position));
   last_params_ = params_;
   have_last_ = true;
   for (int g = 0; g < goal_count; ++g) {
     const int index = slots_[size_t(goal_slot_[size_t(g)])].index;
-    (goal_rotation_[size_t(g)] ? effector_rotation_error_ : effector_position_error_)[size_t(index)] = last_.goal_error[size_t(g)];
+    std::vector<double>& errors = goal_rotation_[size_t(g)] ? effector_rotation_error_ : effector_position_error_;
+    errors[size_t(index)] = last_.goal_error[size_t(g)];
   }
   return true;
 }

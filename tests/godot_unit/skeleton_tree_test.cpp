@@ -189,7 +189,8 @@ TEST(SkeletonTree, RandomPosesRoundTripAndMatchGodotsComposition) {
       s.poses[0].scale = glm::dvec3(scale);  // a uniform scale on the hips scales the whole body
       std::vector<int> order;
       SkeletonTree map;
-      ASSERT_TRUE(map.build(describe(s, "Hips", {"LeftHand", "RightFoot", "Head", "RightHand"}, floating, &order)).empty());
+      const SkeletonTreeDesc d = describe(s, "Hips", {"LeftHand", "RightFoot", "Head", "RightHand"}, floating, &order);
+      ASSERT_TRUE(map.build(d).empty());
       // A random animated pose (rotations; the hips move too).
       for (int b : order)
         s.poses[size_t(b)].rotation = s.rests[size_t(b)] * so3::exp(glm::dvec3(u(rng), u(rng), u(rng)) * 0.8);
@@ -305,7 +306,8 @@ TEST(SkeletonTree, JointSettingsBecomeHingesAndConesAndTheWarmStartRespectsThem)
   EXPECT_EQ(map.tree().motion_cost(spine), 3.0);
   EXPECT_EQ(map.tree().motion_cost(knee), 1.0);
   // An animated knee bent backwards and a spine bent beyond its cone start on their limits.
-  s.poses[size_t(find(s, "LeftLowerLeg"))].rotation = s.rests[size_t(find(s, "LeftLowerLeg"))] * axis_angle(-0.4, {1, 0, 0});
+  const int shin = find(s, "LeftLowerLeg");
+  s.poses[size_t(shin)].rotation = s.rests[size_t(shin)] * axis_angle(-0.4, {1, 0, 0});
   s.poses[size_t(find(s, "Spine"))].rotation = s.rests[size_t(find(s, "Spine"))] * axis_angle(0.9, {1, 0, 0});
   ASSERT_TRUE(update(map, poses_of(s, order)).error.empty());
   std::vector<double> params(size_t(map.tree().dof_count()), 0.0);
