@@ -28,18 +28,18 @@ const TARGET_COLORS := {
 ## walk back, turn.
 const WALK_FROM := -3.0
 const WALK_TO := 5.0
-const WALK_SPEED := 0.9
+const WALK_SPEED := 0.8
 const ACCEL_TIME := 0.8
 const STAND_TIME := 0.6
 const TURN_TIME := 2.8
 const PICK_TIME := 7.2
 ## The crate: its size, how far ahead of the hips' stop it stands, where it is carried, how deep
 ## the hips crouch for it and how far they move back meanwhile.
-const CRATE_SIZE := 0.32
-const CRATE_AHEAD := 0.52
-const CARRY := Vector3(0.0, 1.0, 0.3)
-const CROUCH := 0.36
-const CROUCH_BACK := 0.1
+const CRATE_SIZE := 0.4
+const CRATE_AHEAD := 0.5
+const CARRY := Vector3(0.0, 1.0, 0.38)
+const CROUCH := 0.34
+const CROUCH_BACK := 0.05
 ## A planted foot further than this from its target fails the headless run (m).
 const PLANTED_TOLERANCE := 0.01
 
@@ -99,9 +99,9 @@ func _ready() -> void:
 	show_targets.toggled.connect(func(on: bool): targets_root.visible = on)
 	$UI/Panel/VBox/Menu.pressed.connect(back_to_menu)
 	skeleton.skeleton_updated.connect(_on_skeleton_updated)
-	lap = lap_state(0.0)
+	lap = lap_state(time)
 	_place_character()
-	_camera_focus = Vector3(lap["x"], 0.85, 0.0)
+	_camera_focus = Vector3(lap["x"], 1.25, 0.0)
 	mode_label.text = ("IKBody: one solve for the whole body, feet first (priority 1)" if ik_body != null
 			else "IKBody not available in this build: a GDScript stand-in\n(two-bone legs and arms, no spine) poses the body")
 	if options["demo_seconds"] > 0.0:
@@ -153,7 +153,8 @@ func _make_marker(bone: String) -> Marker3D:
 		ring.inner_radius = 0.05
 		ring.outer_radius = 0.065
 		view.mesh = ring
-		view.position = Vector3(0, 0, 0)
+		view.rotation = Vector3(PI / 2.0, 0.0, 0.0)  # the foot's +Z is the sole's normal
+		view.position = Vector3(0.0, 0.02, -0.065)
 	else:
 		var dot := SphereMesh.new()
 		dot.radius = 0.025
@@ -164,6 +165,17 @@ func _make_marker(bone: String) -> Marker3D:
 	marker.add_child(view)
 	targets_root.add_child(marker)
 	return marker
+
+
+## Jumps to `t` s into the lap: both feet are put down afresh at the next physics frame.
+func restart_at(t: float) -> void:
+	time = t
+	_start_time = t
+	_next_report = t + 1.0
+	_started = false
+	landings = 0
+	lap = lap_state(t)
+	_camera_focus = Vector3(lap["x"], 1.25, 0.0)
 
 
 func back_to_menu() -> void:
@@ -205,6 +217,16 @@ static func lap_state(t: float) -> Dictionary:
 			s["yaw"] = (PI / 2.0 if back else -PI / 2.0) + PI * smoothstep(0.0, 1.0, u)
 			s["yaw_rate"] = PI * 6.0 * u * (1.0 - u) / TURN_TIME
 	return s
+
+
+## When phase `name` first starts in the lap (s).
+static func phase_start(name: String) -> float:
+	var t := 0.0
+	while t < 120.0 and lap_state(t)["phase"] != name:
+		t += 0.05
+	while t > 0.0 and lap_state(t - 0.001)["phase"] == name:
+		t -= 0.001
+	return t
 
 
 ## Distance and speed after `tau` s of a walk of `length` m: accelerate for `ramp` s, cruise at
@@ -282,8 +304,10 @@ func _pick_up(tau: float) -> void:
 	crate.global_transform = Transform3D(Basis(), rest.lerp(carry, smoothstep(0.0, 1.0, carried)))
 	var c := crate.global_position
 	var side := heading * Vector3.RIGHT * (CRATE_SIZE * 0.5 + 0.015)
-	body.reach_points[0] = c + side + Vector3(0, 0.04, 0)
-	body.reach_points[1] = c - side + Vector3(0, 0.04, 0)
+	# The grips: on the sides, 6 cm below the top.
+	var grip := Vector3(0.0, CRATE_SIZE * 0.5 - 0.06, 0.0)
+	body.reach_points[0] = c + side + grip
+	body.reach_points[1] = c - side + grip
 	body.reach_weight = reach * (1.0 - release)
 	var down := clampf(reach - lift + lower - release, 0.0, 1.0)
 	body.crouch = CROUCH * down
@@ -301,8 +325,9 @@ func _write_targets() -> void:
 
 
 func _follow_camera(delta: float) -> void:
-	var focus := Vector3(body.hips.origin.x, 0.75 + 0.5 * body.hips.origin.y, 0.0)
-	_camera_focus = _camera_focus.lerp(focus, 1.0 - exp(-2.0 * delta))
+	var ahead: Vector3 = ground_frame().basis * Vector3.BACK * 0.4 * float(lap["speed"])
+	var focus := Vector3(body.hips.origin.x + ahead.x, 0.75 + 0.5 * body.hips.origin.y, 0.0)
+	_camera_focus = _camera_focus.lerp(focus, 1.0 - exp(-3.0 * delta))
 	camera.global_position = _camera_focus + Vector3(0.9, 0.55, 2.7)
 	camera.look_at(_camera_focus)
 

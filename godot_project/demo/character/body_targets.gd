@@ -23,17 +23,17 @@ extends RefCounted
 ## How far a planted foot may trail its home before it steps (m at walking speed).
 const STEP_TRIGGER := 0.2
 ## How long a swing takes (s); the other foot stays planted meanwhile.
-const SWING_TIME := 0.36
+const SWING_TIME := 0.34
 ## Least time both feet stay planted between two swings (s).
 const DOUBLE_SUPPORT := 0.1
 ## The walking speed STEP_TRIGGER is tuned for (m/s); slower walks take shorter steps.
-const WALK_SPEED := 0.9
+const WALK_SPEED := 0.8
 ## Foot lift over the highest ground under the swing (m).
 const CLEARANCE := 0.07
 ## Fraction of the leg's length (hip joint to ankle) the hips keep the feet within.
-const LEG_REACH := 0.94
+const LEG_REACH := 0.96
 ## How much lower than the rest pose the hips walk (m): a little bent knee.
-const WALK_CROUCH := 0.03
+const WALK_CROUCH := 0.02
 ## Hips height smoothing: the spring's time constant (s).
 const HIPS_SMOOTHING := 0.12
 ## Look-at limits relative to the heading (rad) and easing rate (1/s).
@@ -161,7 +161,8 @@ func update(space: PhysicsDirectSpaceState3D, root: Transform3D, velocity: Vecto
 		var worst: Foot = null
 		var worst_error := 0.0
 		for foot in feet:
-			var home := root * foot.home_in_root
+			# Against where the home will be when a swing started now would land.
+			var home := root * foot.home_in_root + velocity * SWING_TIME
 			var off := foot.planted.origin - home
 			var lag := Vector2(off.x, off.z).length()
 			var turn := _yaw_between(foot.planted.basis * foot.rest_basis.inverse(), heading)

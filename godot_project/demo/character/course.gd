@@ -15,10 +15,11 @@ const STEPS := [[3.55, 0.2], [3.9, 0.1]]
 ## Builds the ground under `parent`.
 static func build(parent: Node3D) -> void:
 	var stone := StandardMaterial3D.new()
-	stone.albedo_color = Color(0.62, 0.56, 0.5)
+	stone.albedo_color = Color(0.5, 0.46, 0.42)
 	stone.roughness = 0.9
+	stone.cull_mode = BaseMaterial3D.CULL_DISABLED  # the ramp's faces are lit by their normals
 	var floor_material := StandardMaterial3D.new()
-	floor_material.albedo_texture = _checker(Color(0.3, 0.34, 0.3), Color(0.25, 0.29, 0.25))
+	floor_material.albedo_texture = _checker(Color(0.36, 0.4, 0.36), Color(0.31, 0.35, 0.31))
 	floor_material.texture_filter = BaseMaterial3D.TEXTURE_FILTER_LINEAR_WITH_MIPMAPS
 	floor_material.uv1_triplanar = true
 	floor_material.uv1_scale = Vector3.ONE * 0.5
@@ -67,11 +68,14 @@ static func _ramp(parent: Node3D, material: Material) -> void:
 	var f := Vector3(RAMP_END, TOP, LANE)
 	var st := SurfaceTool.new()
 	st.begin(Mesh.PRIMITIVE_TRIANGLES)
-	# Clockwise seen from outside (Godot's front faces).
+	var centre := (a + b + c + d + e + f) / 6.0
 	for tri in [[a, c, b], [d, e, f], [a, d, f], [a, f, c], [b, c, f], [b, f, e]]:
+		var n: Vector3 = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalized()
+		if n.dot(tri[0] - centre) < 0.0:
+			n = -n  # outward
 		for v in tri:
+			st.set_normal(n)
 			st.add_vertex(v)
-	st.generate_normals()
 	var shape := ConvexPolygonShape3D.new()
 	shape.points = PackedVector3Array([a, b, c, d, e, f])
 	_body(parent, "Ramp", st.commit(), shape, material, Vector3.ZERO)
