@@ -42,6 +42,10 @@ const CROUCH := 0.34
 const CROUCH_BACK := 0.05
 ## A planted foot further than this from its target fails the headless run (m).
 const PLANTED_TOLERANCE := 0.01
+## While the hands grip the crate on the floor (these seconds into the pick-up), IKBody must hold
+## them within this of their targets (m), bending and crouching as needed.
+const GRIP := [2.0, 2.4]
+const GRIP_TOLERANCE := 0.02
 
 @onready var humanoid: Node3D = $Humanoid
 @onready var skeleton: Skeleton3D = $Humanoid/Skeleton3D
@@ -272,7 +276,9 @@ func _physics_process(delta: float) -> void:
 	var velocity: Vector3 = root.basis * Vector3.BACK * float(lap["speed"])
 	_pick_up(float(lap["tau"]) if lap["phase"] == "pick" else -1.0)
 	var t := time
-	orb.global_position = Vector3(lap["x"], 0.0, 0.0) + Vector3(1.9 * cos(0.55 * t), 1.55 + 0.35 * sin(1.3 * t), 1.9 * sin(0.55 * t))
+	# The orb drifts on the far side of the character from the camera.
+	orb.global_position = Vector3(lap["x"], body.hips.origin.y, 0.0) \
+			+ Vector3(1.8 * cos(0.5 * t), 0.45 + 0.25 * sin(1.3 * t), -1.3 + 0.8 * sin(0.5 * t))
 	body.update(space, root, velocity, delta, float(lap["yaw_rate"]))
 	for i in 2:
 		var swinging := body.feet[i].swinging
@@ -400,6 +406,8 @@ func _on_skeleton_updated() -> void:
 	var to_world := skeleton.global_transform
 	for bone in EFFECTORS:
 		var pose := to_world * skeleton.get_bone_global_pose(_bones[bone])
+		if bone == "Head":
+			body.head_origin = pose.origin  # where the look's marker is drawn next frame
 		var goal: Transform3D = (targets[bone] as Node3D).global_transform
 		position_errors[bone] = pose.origin.distance_to(goal.origin)
 		rotation_errors[bone] = (pose.basis.orthonormalized().inverse() * goal.basis.orthonormalized()).get_rotation_quaternion().get_angle()
@@ -410,6 +418,8 @@ func _on_skeleton_updated() -> void:
 				var bone := "LeftFoot" if i == 0 else "RightFoot"
 				stats.add("planted", position_errors[bone])
 		stats.add("hands", 0.5 * (position_errors["LeftHand"] + position_errors["RightHand"]))
+		if lap["phase"] == "pick" and lap["tau"] >= GRIP[0] and lap["tau"] <= GRIP[1]:
+			stats.add("grip", maxf(position_errors["LeftHand"], position_errors["RightHand"]))
 		stats.add("head", rotation_errors["Head"])
 		stats.add("hips", position_errors["Hips"])
 		stats.add("micros", last_usec())
@@ -442,9 +452,10 @@ static func _far_from_edges(x: float) -> bool:
 
 
 ## PASS: the feet touched down at least once a second of walking, every planted foot stayed within
-## PLANTED_TOLERANCE of its ground contact (the IK's job), and every contact sat on the course's
-## surface within 1 mm (the ray casts' job). Without IKBody the stand-in's legs are analytic, so
-## the same check then says the hips were low enough for both feet to reach.
+## PLANTED_TOLERANCE of its ground contact (the IK's job), every contact sat on the course's
+## surface within 1 mm (the ray casts' job), and with IKBody the hands held the crate's grips
+## within GRIP_TOLERANCE (mean) if the run got there. Without IKBody the stand-in's legs are
+## analytic, so the feet check then says the hips were low enough for both feet to reach.
 func _finish() -> void:
 	_finished = true
 	var frames := _run.count("hips")
@@ -458,10 +469,13 @@ func _finish() -> void:
 		why = "a planted foot was %.1f mm off its ground contact (> %.0f mm)" % [1000.0 * _max_planted_error, 1000.0 * PLANTED_TOLERANCE]
 	elif not (_max_contact_error <= 1e-3):
 		why = "a ground contact was %.2f mm off the course's surface" % (1000.0 * _max_contact_error)
+	elif ik_body != null and _run.count("grip") > 0 and not (_run.mean("grip") <= GRIP_TOLERANCE):
+		why = "the hands were %.1f mm off the crate's grips (> %.0f mm)" % [1000.0 * _run.mean("grip"), 1000.0 * GRIP_TOLERANCE]
 	var who := "IKBody" if ik_body != null else "IKBody not available, stand-in"
-	print("character summary: %d frames, %d landings, planted feet %.3f mm mean / %.3f mm max, hands %.1f mm, head %.2f°, hips %.1f mm, %.0f µs per character (%s)" % [
+	print("character summary: %d frames, %d landings, planted feet %.3f mm mean / %.3f mm max, hands %.1f mm (at the grips %s), head %.2f°, hips %.1f mm, %.0f µs per character (%s)" % [
 			frames, landings, 1000.0 * _run.mean("planted"), 1000.0 * _max_planted_error, 1000.0 * _run.mean("hands"),
+			"%.1f mm" % (1000.0 * _run.mean("grip")) if _run.count("grip") > 0 else "not reached",
 			rad_to_deg(_run.mean("head")), 1000.0 * _run.mean("hips"), _run.mean("micros"), who])
-	print("demo: PASS character (%s): %d landings, planted feet within %.2f mm of their contacts" % [who, landings, 1000.0 * _max_planted_error]
+	print("demo: PASS character (%s): %d landings, planted feet within %.2f mm of their targets" % [who, landings, 1000.0 * _max_planted_error]
 			if why == "" else "demo: FAIL character (%s): %s" % [who, why])
 	get_tree().quit(0 if why == "" else 1)

@@ -9,15 +9,15 @@ extends RefCounted
 ## velocity; `update()` then
 ## - casts a ray down under each foot's home (beside the hips, a little ahead when walking): the
 ##   contact point and the surface normal;
-## - keeps each foot planted until it trails its home by more than STEP_TRIGGER (or is turned more
-##   than 25° from the heading), then swings it, one foot at a time, onto a new contact ahead:
+## - keeps each foot planted (rolling onto its toes as it trails: heel-off) until it trails its
+##   home by more than STEP_TRIGGER (or is turned more than 25° from the heading), then swings it, one foot at a time, onto a new contact ahead:
 ##   smoothstep across, an arc that clears the highest ground under the swing (ray cast at three
 ##   points), the foot's sole turned onto the new surface normal;
 ## - lowers the hips just enough that both ankles are within LEG_REACH of the hip joints, and
 ##   smooths the rest of their height (a critically damped spring), so steps down don't pop;
 ## - moves the hands: swinging beside the thighs opposite to the feet, or onto `reach_points`
 ##   (a pick-up: the caller drives `reach_weight` from 0 to 1);
-## - turns the head target toward `look_at_point`, limited to ±70° of yaw and ±40° of pitch of the
+## - turns the head target toward `look_at_point`, limited to ±70° of yaw and ±30° of pitch of the
 ##   heading, eased.
 
 ## How far a planted foot may trail its home before it steps (m at walking speed).
@@ -34,11 +34,17 @@ const CLEARANCE := 0.07
 const LEG_REACH := 0.96
 ## How much lower than the rest pose the hips walk (m): a little bent knee.
 const WALK_CROUCH := 0.02
+## Heel-off: a planted foot trailing its home by more than HEEL_OFF_START (m) rolls onto its toes,
+## up to HEEL_OFF_MAX when it trails by HEEL_OFF_START + HEEL_OFF_RANGE; so the hips need not drop
+## to keep a trailing flat foot in reach.
+const HEEL_OFF_START := 0.1
+const HEEL_OFF_RANGE := 0.25
+const HEEL_OFF_MAX := deg_to_rad(30.0)
 ## Hips height smoothing: the spring's time constant (s).
 const HIPS_SMOOTHING := 0.12
 ## Look-at limits relative to the heading (rad) and easing rate (1/s).
 const LOOK_YAW_LIMIT := deg_to_rad(70.0)
-const LOOK_PITCH_LIMIT := deg_to_rad(40.0)
+const LOOK_PITCH_LIMIT := deg_to_rad(30.0)
 const LOOK_RATE := 6.0
 
 ## One foot's state.
@@ -72,6 +78,9 @@ var hands: Array[Transform3D] = [Transform3D(), Transform3D()]  ## left, right (
 var head := Transform3D()  ## the head's target: its origin near the head, its basis the look
 var head_rest := Transform3D()
 var look_at_point := Vector3.ZERO
+## Where the head was last posed (world; NAN until known): the head's target takes it as its
+## origin, which only places the marker and the look's start (the head effector is rotation only).
+var head_origin := Vector3(NAN, NAN, NAN)
 ## Where the hands should be when reaching (world), and how far they have gone there (0..1).
 var reach_points: Array[Vector3] = [Vector3.ZERO, Vector3.ZERO]
 var reach_weight := 0.0
@@ -81,6 +90,7 @@ var crouch := 0.0
 var lean_back := 0.0
 ## Measured once from the skeleton's rest.
 var ankle_height := 0.07
+var toe_ahead := 0.13  ## how far the toes' joint is ahead of the ankle (m)
 var leg_length := 0.8
 var arm_length := 0.5
 var shoulders_in_hips: Array[Vector3] = [Vector3.ZERO, Vector3.ZERO]
@@ -109,6 +119,8 @@ func _init(skeleton: Skeleton3D) -> void:
 		foot.home_in_root = Vector3(ankle.origin.x, 0.0, ankle.origin.z)
 		foot.rest_basis = ankle.basis
 		ankle_height = ankle.origin.y
+		var toes: Transform3D = rest.call(n + "Toes")
+		toe_ahead = Vector2(toes.origin.x - ankle.origin.x, toes.origin.z - ankle.origin.z).length()
 		leg_length = hip.origin.distance_to(rest.call(n + "LowerLeg").origin) \
 				+ (rest.call(n + "LowerLeg") as Transform3D).origin.distance_to(ankle.origin)
 		feet.append(foot)
@@ -175,7 +187,7 @@ func update(space: PhysicsDirectSpaceState3D, root: Transform3D, velocity: Vecto
 			var turned := Transform3D(Basis(Vector3.UP, yaw_rate * SWING_TIME * 1.5) * heading, root.origin)
 			_start_swing(worst, turned, lead)
 	for foot in feet:
-		foot.target = _swing_pose(foot) if foot.swinging else foot.planted
+		foot.target = _swing_pose(foot) if foot.swinging else _heel_off(foot, root)
 	_update_hips(root, heading, delta)
 	_update_hands(heading)
 	_update_head(heading, delta)
@@ -195,6 +207,20 @@ func _start_swing(foot: Foot, root: Transform3D, lead: Vector3) -> void:
 		var p := foot.contact.lerp(foot.swing_to_contact, s)
 		top = maxf(top, (_ground(p, p.y)[0] as Vector3).y)
 	foot.swing_top = top
+
+
+## A planted foot's target, rolled onto its toes as it trails its home (HEEL_OFF_*): turned about
+## the line across the sole under the toes' joint, so the toes stay where they were planted.
+func _heel_off(foot: Foot, root: Transform3D) -> Transform3D:
+	var forward := root.basis.orthonormalized() * Vector3.BACK
+	var trail := (root * foot.home_in_root - foot.planted.origin).dot(forward)
+	var angle := clampf((trail - HEEL_OFF_START) / HEEL_OFF_RANGE, 0.0, 1.0) * HEEL_OFF_MAX
+	if angle <= 0.0:
+		return foot.planted
+	var along := (forward - foot.normal * forward.dot(foot.normal)).normalized()  # on the surface
+	var pivot := foot.contact + along * toe_ahead
+	var roll := Basis(foot.normal.cross(along).normalized(), angle)
+	return Transform3D(roll * foot.planted.basis, pivot + roll * (foot.planted.origin - pivot))
 
 
 ## The ankle's transform during a swing: across on a smoothstep, up on an arc over swing_top.
@@ -222,8 +248,9 @@ func _foot_on_ground(foot: Foot, heading: Basis, contact: Vector3, normal: Vecto
 func _update_hips(root: Transform3D, heading: Basis, delta: float) -> void:
 	var basis := heading * hips_rest.basis
 	var xz := root * Vector3(hips_rest.origin.x, 0.0, hips_rest.origin.z - lean_back)
-	# On the ground under the feet, not under the hips: a hips over a step's edge stays level.
-	var ground := minf(feet[0].planted.origin.y, feet[1].planted.origin.y) - ankle_height
+	# On the ground under the planted feet (their mean), not under the hips: hips over a step's
+	# edge stay level; the reach limit below lowers them further when a foot needs it.
+	var ground := 0.5 * (feet[0].planted.origin.y + feet[1].planted.origin.y) - ankle_height
 	var want := ground + hips_rest.origin.y - WALK_CROUCH - crouch
 	if is_nan(_hips_y):
 		_hips_y = want
@@ -264,9 +291,12 @@ func _update_hands(heading: Basis) -> void:
 		hands[i] = Transform3D(heading, point)
 
 
-## The head: look toward look_at_point, limited and eased; the origin rides on the hips.
+## The head: look toward look_at_point, limited and eased; the origin at the posed head (or, before
+## the first pose, where the rest pose puts it over the hips).
 func _update_head(heading: Basis, delta: float) -> void:
 	var origin := hips * (hips_rest.affine_inverse() * head_rest.origin)
+	if not is_nan(head_origin.x):
+		origin = head_origin
 	var to_point := heading.inverse() * (look_at_point - origin)
 	if to_point.length() < 1e-3:
 		to_point = Vector3.BACK

@@ -17,7 +17,6 @@ static func build(parent: Node3D) -> void:
 	var stone := StandardMaterial3D.new()
 	stone.albedo_color = Color(0.5, 0.46, 0.42)
 	stone.roughness = 0.9
-	stone.cull_mode = BaseMaterial3D.CULL_DISABLED  # the ramp's faces are lit by their normals
 	var floor_material := StandardMaterial3D.new()
 	floor_material.albedo_texture = _checker(Color(0.36, 0.4, 0.36), Color(0.31, 0.35, 0.31))
 	floor_material.texture_filter = BaseMaterial3D.TEXTURE_FILTER_LINEAR_WITH_MIPMAPS
@@ -71,8 +70,11 @@ static func _ramp(parent: Node3D, material: Material) -> void:
 	var centre := (a + b + c + d + e + f) / 6.0
 	for tri in [[a, c, b], [d, e, f], [a, d, f], [a, f, c], [b, c, f], [b, f, e]]:
 		var n: Vector3 = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalized()
-		if n.dot(tri[0] - centre) < 0.0:
-			n = -n  # outward
+		if n.dot(tri[0] - centre) > 0.0:
+			# Counter-clockwise seen from outside: Godot's front faces are clockwise.
+			tri = [tri[0], tri[2], tri[1]]
+		else:
+			n = -n
 		for v in tri:
 			st.set_normal(n)
 			st.add_vertex(v)
