@@ -124,6 +124,7 @@ func _make_ik() -> void:
 		ik_body.call("setup_humanoid")
 		ik_body.set("floating_root", true)
 		var effectors: Array = ik_body.get("effectors")
+		var found := []
 		for effector: Resource in effectors:
 			var bone := str(effector.get("bone_name"))
 			if EFFECTORS.has(bone):
@@ -133,7 +134,13 @@ func _make_ik() -> void:
 				effector.set("position_weight", e[1])
 				effector.set("rotation_weight", e[2])
 				effector.set("enabled", true)
+				found.append(bone)
+			else:
+				effector.set("enabled", false)  # no target for it in this scene
 		ik_body.set("effectors", effectors)
+		for bone in EFFECTORS:
+			if not found.has(bone):
+				push_warning("character: IKBody.setup_humanoid() made no effector for %s" % bone)
 	else:
 		standin = StandIn.new()
 		standin.name = "StandInIK"
@@ -365,7 +372,9 @@ func _unhandled_input(event: InputEvent) -> void:
 ## Microseconds the last body solve took (IKBody's report, or the stand-in's own clock).
 func last_usec() -> float:
 	if ik_body != null:
-		return float(ik_body.call("get_last_usec"))
+		if ik_body.has_method("get_last_usec"):
+			return float(ik_body.call("get_last_usec"))
+		return float((ik_body.call("get_last_result") as Dictionary).get("microseconds", NAN))
 	return standin.last_usec if standin != null else NAN
 
 

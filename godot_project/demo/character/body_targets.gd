@@ -31,9 +31,9 @@ const WALK_SPEED := 0.8
 ## Foot lift over the highest ground under the swing (m).
 const CLEARANCE := 0.07
 ## Fraction of the leg's length (hip joint to ankle) the hips keep the feet within.
-const LEG_REACH := 0.96
+const LEG_REACH := 0.985
 ## How much lower than the rest pose the hips walk (m): a little bent knee.
-const WALK_CROUCH := 0.02
+const WALK_CROUCH := 0.008
 ## Heel-off: a planted foot trailing its home by more than HEEL_OFF_START (m) rolls onto its toes,
 ## up to HEEL_OFF_MAX when it trails by HEEL_OFF_START + HEEL_OFF_RANGE; so the hips need not drop
 ## to keep a trailing flat foot in reach.
@@ -248,9 +248,11 @@ func _foot_on_ground(foot: Foot, heading: Basis, contact: Vector3, normal: Vecto
 func _update_hips(root: Transform3D, heading: Basis, delta: float) -> void:
 	var basis := heading * hips_rest.basis
 	var xz := root * Vector3(hips_rest.origin.x, 0.0, hips_rest.origin.z - lean_back)
-	# On the ground under the planted feet (their mean), not under the hips: hips over a step's
-	# edge stay level; the reach limit below lowers them further when a foot needs it.
-	var ground := 0.5 * (feet[0].planted.origin.y + feet[1].planted.origin.y) - ankle_height
+	# On the ground under the feet (their mean; a swinging foot's landing), not under the hips:
+	# hips over a step's edge stay level; the reach limit below lowers them when a foot needs it.
+	var ground := -ankle_height
+	for foot in feet:
+		ground += 0.5 * (foot.swing_to.origin.y if foot.swinging else foot.planted.origin.y)
 	var want := ground + hips_rest.origin.y - WALK_CROUCH - crouch
 	if is_nan(_hips_y):
 		_hips_y = want

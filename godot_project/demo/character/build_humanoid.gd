@@ -18,6 +18,7 @@ extends SceneTree
 ##   bend about their own +X as on every skeleton Godot retargets to this profile.
 ## - CMU has no UpperChest and no clavicle offset: UpperChest splits Spine1→Neck1 in half, and
 ##   each Shoulder starts 0.5 units beside the midline at the upper arm's height.
+## - The lower spine (Hips→Spine→Chest) stands upright at CMU's lengths (see _upright).
 
 const OUT := "res://demo/character/humanoid.tscn"
 const DEFAULT_BVH := "/usr/share/assimp/models/BVH/01_01.bvh"
@@ -62,11 +63,25 @@ func _init() -> void:
 	if err == OK:
 		err = ResourceSaver.save(packed, OUT)
 	root.free()
+	if err == OK:
+		err = _strip_node_ids(OUT)
 	if err != OK:
 		push_error("build_humanoid: could not write %s (error %d)" % [OUT, err])
 	else:
 		print("build_humanoid: wrote %s from %s" % [OUT, bvh_path])
 	quit(0 if err == OK else 1)
+
+
+## Removes the random `unique_id=` Godot 4.6 writes on each node line, so that a rebuild writes
+## the same file (Godot reads scenes without them and adds them when the editor saves).
+static func _strip_node_ids(path: String) -> int:
+	var text := FileAccess.get_file_as_string(path)
+	var ids := RegEx.create_from_string(" unique_id=[0-9]+")
+	var file := FileAccess.open(path, FileAccess.WRITE)
+	if file == null:
+		return FileAccess.get_open_error()
+	file.store_string(ids.sub(text, "", true))
+	return OK
 
 
 ## The BVH's HIERARCHY as {joint name: OFFSET (Vector3, CMU units)}; an End Site is "<joint>_End".
@@ -117,8 +132,8 @@ static func humanoid_positions(o: Dictionary) -> Dictionary:
 	var p := {}
 	p["Root"] = Vector3.ZERO
 	p["Hips"] = Vector3(0, hips_y, 0)
-	p["Spine"] = p["Hips"] + _mid(o["Spine"] * s)
-	p["Chest"] = p["Spine"] + _mid(o["Spine1"] * s)
+	p["Spine"] = p["Hips"] + _upright(o["Spine"] * s)
+	p["Chest"] = p["Spine"] + _upright(o["Spine1"] * s)
 	var neck1: Vector3 = _mid(o["Neck1"] * s)
 	p["UpperChest"] = p["Chest"] + 0.5 * neck1
 	p["Neck"] = p["Chest"] + neck1
@@ -140,6 +155,12 @@ static func humanoid_positions(o: Dictionary) -> Dictionary:
 		p[n + "HandEnd"] = p[n + "Hand"] + Vector3(k * 0.17, 0, 0)  # a hand-sized hand (see the mesh)
 	p["HeadTop"] = p["Head"] + Vector3(0, 0.2, 0)
 	return p
+
+
+## The lower spine's offsets stand upright at their CMU length: in the subject's T-pose they lean
+## back 5° and 1°, which makes a walking figure look as if it leaned back.
+static func _upright(v: Vector3) -> Vector3:
+	return Vector3(0, v.length(), 0)
 
 
 ## A spine offset without its small sideways part (the mocap's one subject leans a little).
@@ -203,11 +224,11 @@ class Body:
 	var rest: Dictionary
 	var p: Dictionary
 	var owner: Node
-	var skin := _material(Color(0.87, 0.69, 0.55), 0.6)
-	var shirt := _material(Color(0.2, 0.42, 0.68), 0.8)
-	var trousers := _material(Color(0.2, 0.22, 0.27), 0.85)
-	var shoes := _material(Color(0.35, 0.2, 0.12), 0.5)
-	var dark := _material(Color(0.08, 0.08, 0.1), 0.3)
+	var skin := _material("skin", Color(0.87, 0.69, 0.55), 0.6)
+	var shirt := _material("shirt", Color(0.2, 0.42, 0.68), 0.8)
+	var trousers := _material("trousers", Color(0.2, 0.22, 0.27), 0.85)
+	var shoes := _material("shoes", Color(0.35, 0.2, 0.12), 0.5)
+	var dark := _material("dark", Color(0.08, 0.08, 0.1), 0.3)
 
 	func _init(s: Skeleton3D, r: Dictionary, positions: Dictionary, o: Node) -> void:
 		skeleton = s
@@ -215,8 +236,9 @@ class Body:
 		p = positions
 		owner = o
 
-	static func _material(color: Color, roughness: float) -> StandardMaterial3D:
+	static func _material(name: String, color: Color, roughness: float) -> StandardMaterial3D:
 		var m := StandardMaterial3D.new()
+		m.resource_scene_unique_id = name
 		m.albedo_color = color
 		m.roughness = roughness
 		return m
@@ -261,6 +283,8 @@ class Body:
 		while attachment.has_node(NodePath(mi.name)):
 			mi.name = "%s%d" % [part, i]
 			i += 1
+		# Fixed ids (not Godot's random ones): a rebuild writes the same file.
+		mesh.resource_scene_unique_id = "%s_%s" % [bone, mi.name]
 		mi.mesh = mesh
 		mi.material_override = material
 		mi.transform = (rest[bone] as Transform3D).affine_inverse() * at
