@@ -40,6 +40,8 @@ const WALK_CROUCH := 0.008
 const HEEL_OFF_START := 0.1
 const HEEL_OFF_RANGE := 0.25
 const HEEL_OFF_MAX := deg_to_rad(30.0)
+## How far the hips (and the body on them) lean forward at walking speed (rad).
+const WALK_LEAN := deg_to_rad(4.0)
 ## Hips height smoothing: the spring's time constant (s).
 const HIPS_SMOOTHING := 0.12
 ## Look-at limits relative to the heading (rad) and easing rate (1/s).
@@ -188,7 +190,7 @@ func update(space: PhysicsDirectSpaceState3D, root: Transform3D, velocity: Vecto
 			_start_swing(worst, turned, lead)
 	for foot in feet:
 		foot.target = _swing_pose(foot) if foot.swinging else _heel_off(foot, root)
-	_update_hips(root, heading, delta)
+	_update_hips(root, heading, delta, gait)
 	_update_hands(heading)
 	_update_head(heading, delta)
 
@@ -243,10 +245,11 @@ func _foot_on_ground(foot: Foot, heading: Basis, contact: Vector3, normal: Vecto
 	return Transform3D(tilt * heading * foot.rest_basis, contact + normal * ankle_height)
 
 
-## The hips: the ground frame's heading, the rest height less a little, lowered so that both
-## ankle targets stay within LEG_REACH of their hip joints, then smoothed.
-func _update_hips(root: Transform3D, heading: Basis, delta: float) -> void:
-	var basis := heading * hips_rest.basis
+## The hips: the ground frame's heading (leaning forward by WALK_LEAN at walking speed, `gait` = 1)
+## and the rest height less a little over the feet's ground, smoothed, then lowered at once so
+## that both ankle targets stay within LEG_REACH of their hip joints.
+func _update_hips(root: Transform3D, heading: Basis, delta: float, gait: float) -> void:
+	var basis := heading * Basis(Vector3.RIGHT, WALK_LEAN * gait) * hips_rest.basis
 	var xz := root * Vector3(hips_rest.origin.x, 0.0, hips_rest.origin.z - lean_back)
 	# On the ground under the feet (their mean; a swinging foot's landing), not under the hips:
 	# hips over a step's edge stay level; the reach limit below lowers them when a foot needs it.
