@@ -118,34 +118,41 @@ func _ready() -> void:
 ## bone name, the priorities and weights of EFFECTORS and a floating root (the hips move too).
 func _make_ik() -> void:
 	if ClassDB.class_exists("IKBody"):
-		ik_body = ClassDB.instantiate("IKBody")
-		ik_body.name = "IKBody"
-		skeleton.add_child(ik_body)
-		ik_body.call("setup_humanoid")
-		ik_body.set("floating_root", true)
-		var effectors: Array = ik_body.get("effectors")
-		var found := []
-		for effector: Resource in effectors:
-			var bone := str(effector.get("bone_name"))
-			if EFFECTORS.has(bone):
-				var e: Array = EFFECTORS[bone]
-				effector.set("target", ik_body.get_path_to(targets[bone]))
-				effector.set("priority", e[0])
-				effector.set("position_weight", e[1])
-				effector.set("rotation_weight", e[2])
-				effector.set("enabled", true)
-				found.append(bone)
-			else:
-				effector.set("enabled", false)  # no target for it in this scene
-		ik_body.set("effectors", effectors)
-		for bone in EFFECTORS:
-			if not found.has(bone):
-				push_warning("character: IKBody.setup_humanoid() made no effector for %s" % bone)
+		use_ik_body(ClassDB.instantiate("IKBody"))
 	else:
 		standin = StandIn.new()
 		standin.name = "StandInIK"
 		standin.targets = targets
 		skeleton.add_child(standin)
+
+
+## Puts `node` (an IKBody) under the skeleton and wires it: setup_humanoid(), a floating root,
+## each effector's target, priority and weights by bone name; effectors this scene has no target
+## for are disabled.
+func use_ik_body(node: Node) -> void:
+	ik_body = node
+	ik_body.name = "IKBody"
+	skeleton.add_child(ik_body)
+	ik_body.call("setup_humanoid")
+	ik_body.set("floating_root", true)
+	var effectors: Array = ik_body.get("effectors")
+	var found := []
+	for effector: Resource in effectors:
+		var bone := str(effector.get("bone_name"))
+		if EFFECTORS.has(bone):
+			var e: Array = EFFECTORS[bone]
+			effector.set("target", ik_body.get_path_to(targets[bone]))
+			effector.set("priority", e[0])
+			effector.set("position_weight", e[1])
+			effector.set("rotation_weight", e[2])
+			effector.set("enabled", true)
+			found.append(bone)
+		else:
+			effector.set("enabled", false)  # no target for it in this scene
+	ik_body.set("effectors", effectors)
+	for bone in EFFECTORS:
+		if not found.has(bone):
+			push_warning("character: IKBody.setup_humanoid() made no effector for %s" % bone)
 
 
 ## A small visible marker for an effector's target under Targets.

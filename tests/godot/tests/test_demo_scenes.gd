@@ -250,3 +250,50 @@ func test_character_picks_the_crate_up() -> void:
 	if scene.ik_body != null:
 		var hands: float = maxf(scene.position_errors["LeftHand"], scene.position_errors["RightHand"])
 		check_le(hands, 0.02, "IKBody's hands on the crate (m)")
+
+
+## Stands in for IKBody's script API (the class is not in every build): what the scene wires.
+class MockEffector extends Resource:
+	var bone_name := ""
+	var target := NodePath()
+	var priority := 1
+	var position_weight := 1.0
+	var rotation_weight := 0.0
+	var enabled := true
+
+
+class MockIKBody extends Node:
+	var effectors: Array = []
+	var floating_root := false
+
+	func setup_humanoid() -> void:
+		for bone in ["Hips", "LeftHand", "RightHand", "LeftFoot", "RightFoot", "Head", "LeftToes"]:
+			var e := MockEffector.new()
+			e.bone_name = bone
+			effectors.append(e)
+
+	func get_last_usec() -> int:
+		return 7
+
+
+func test_character_wires_ik_body_by_bone_name() -> void:
+	var scene: Node3D = (load(CHARACTER) as PackedScene).instantiate()
+	case_root.add_child(scene)
+	await _frames(2)
+	var body := MockIKBody.new()
+	scene.use_ik_body(body)
+	check_eq(body.get_parent(), scene.skeleton, "the IKBody under the skeleton")
+	check(body.floating_root, "a floating root")
+	for e: MockEffector in body.effectors:
+		if e.bone_name == "LeftToes":
+			check(not e.enabled, "an effector without a target in the scene is disabled")
+			continue
+		var want: Array = scene.EFFECTORS[e.bone_name]
+		check_eq(body.get_node_or_null(e.target), scene.targets[e.bone_name], "%s's target path" % e.bone_name)
+		check_eq(e.priority, want[0], "%s's priority" % e.bone_name)
+		check_eq(e.position_weight, want[1], "%s's position weight" % e.bone_name)
+		check_eq(e.rotation_weight, want[2], "%s's rotation weight" % e.bone_name)
+		check(e.enabled, "%s enabled" % e.bone_name)
+	check_eq(scene.last_usec(), 7.0, "µs from get_last_usec()")
+	await _frames(2)
+	check(scene.stats_label.text.contains("7 µs per character"), "the HUD shows IKBody's µs: %s" % scene.stats_label.text)
