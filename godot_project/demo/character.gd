@@ -450,8 +450,8 @@ func _on_skeleton_updated() -> void:
 				_max_contact_error = maxf(_max_contact_error, absf(foot.contact.y - Course.height_at(x)))
 	if options["demo_seconds"] > 0.0 and time >= _next_report:
 		_next_report += 1.0
-		print("character t=%2.0f s: %s | %s | planted feet %.2f mm mean | hands %.1f mm | head %.2f° | hips %.1f mm | %d landings | %.0f µs per character" % [
-				time, "IKBody" if ik_body != null else "stand-in", _phase_text(), 1000.0 * _second.mean("planted"),
+		print("character t=%2.0f s, frame %d: %s | %s | planted feet %.2f mm mean | hands %.1f mm | head %.2f° | hips %.1f mm | %d landings | %.0f µs per character" % [
+				time - _start_time, _run.count("hips"), "IKBody" if ik_body != null else "stand-in", _phase_text(), 1000.0 * _second.mean("planted"),
 				1000.0 * _second.mean("hands"), rad_to_deg(_second.mean("head")), 1000.0 * _second.mean("hips"),
 				landings, _second.mean("micros")])
 		_second.clear()
