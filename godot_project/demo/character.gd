@@ -5,7 +5,8 @@ extends Node3D
 ## moves effector targets (Marker3D under Targets, written by character/body_targets.gd: foot
 ## placement by ray casts, the hips' height, the hands, the look); one IKBody node under the
 ## skeleton poses the whole body onto them. A build without IKBody shows the same targets posed
-## by a GDScript stand-in (character/standin_ik.gd), which bends no spine. Options: demo_cli.gd.
+## by a GDScript stand-in (character/standin_ik.gd): limb by limb, with a crude forward bend.
+## Options: demo_cli.gd (--demo-seconds, --screenshot, --screenshot-at, --start-at).
 
 const Cli := preload("res://demo/demo_cli.gd")
 const BodyTargets := preload("res://demo/character/body_targets.gd")
@@ -107,10 +108,10 @@ func _ready() -> void:
 	_place_character()
 	_camera_focus = Vector3(lap["x"], 1.25, 0.0)
 	mode_label.text = ("IKBody: one solve for the whole body, feet first (priority 1)" if ik_body != null
-			else "IKBody not available in this build: a GDScript stand-in\n(two-bone legs and arms, no spine) poses the body")
+			else "IKBody not available in this build: a GDScript stand-in\n(two-bone limbs, a crude forward bend) poses the body")
 	if options["demo_seconds"] > 0.0:
 		print("character: %s, %d bones, %s s of simulated time" % [
-				"IKBody" if ik_body != null else "IKBody not available (stand-in: two-bone legs and arms, no spine)",
+				"IKBody" if ik_body != null else "IKBody not available (stand-in: two-bone limbs, a crude forward bend)",
 				skeleton.get_bone_count(), options["demo_seconds"]])
 
 
