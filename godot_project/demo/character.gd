@@ -12,6 +12,7 @@ const Cli := preload("res://demo/demo_cli.gd")
 const BodyTargets := preload("res://demo/character/body_targets.gd")
 const Course := preload("res://demo/character/course.gd")
 const StandIn := preload("res://demo/character/standin_ik.gd")
+const ToesOnGround := preload("res://demo/character/toes_on_ground.gd")
 
 ## The effectors, their priority (1 = highest: the feet stay planted whatever the hands need)
 ## and weights [position, rotation]. The head only turns (a look), the hands only reach.
@@ -62,6 +63,8 @@ var options := {}
 ## The IKBody node when this build has the class, else null (the stand-in poses the body).
 var ik_body: Node = null
 var standin: SkeletonModifier3D = null
+## Runs after the IK: keeps a rolling foot's toes on the ground (toes_on_ground.gd).
+var toes: SkeletonModifier3D = null
 ## Effector target markers by bone name.
 var targets := {}
 var body: BodyTargets
@@ -100,6 +103,10 @@ func _ready() -> void:
 		_bones[bone] = skeleton.find_bone(bone)
 	body = BodyTargets.new(skeleton)
 	_make_ik()
+	toes = ToesOnGround.new()
+	toes.name = "ToesOnGround"
+	toes.body = body
+	skeleton.add_child(toes)
 	show_targets.button_pressed = true
 	show_targets.toggled.connect(func(on: bool): targets_root.visible = on)
 	$UI/Panel/VBox/Menu.pressed.connect(back_to_menu)
@@ -151,6 +158,8 @@ func use_ik_body(node: Node) -> void:
 		else:
 			effector.set("enabled", false)  # no target for it in this scene
 	ik_body.set("effectors", effectors)
+	if toes != null:
+		skeleton.move_child(toes, -1)  # after the IK
 	for bone in EFFECTORS:
 		if not found.has(bone):
 			push_warning("character: IKBody.setup_humanoid() made no effector for %s" % bone)
