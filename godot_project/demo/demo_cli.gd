@@ -9,6 +9,7 @@ extends RefCounted
 ##   --screenshot=PATH    save one rendered frame as PNG (needs a real renderer, not --headless),
 ##   --screenshot-at=S    taken after S seconds of simulated time (default 3), then quit
 ##   --seed=N             the missile demo's random flight paths
+##   --start-at=S         the character demo: start S seconds into its lap
 
 ## The solvers the demos offer: label, IKChain.Solver value, command-line name. Two Bone is not
 ## offered: it solves exactly two joints and neither demo has two.
@@ -23,9 +24,10 @@ const SOLVERS := [
 
 
 ## The user arguments as a Dictionary: demo_seconds (0 = run until closed), solver (-1 = the
-## scene's own), screenshot ("" = none), screenshot_at, seed. Unknown arguments are reported.
+## scene's own), screenshot ("" = none), screenshot_at, seed, start_at. Unknown arguments are
+## reported.
 static func options() -> Dictionary:
-	var o := {"demo_seconds": 0.0, "solver": -1, "screenshot": "", "screenshot_at": 3.0, "seed": -1}
+	var o := {"demo_seconds": 0.0, "solver": -1, "screenshot": "", "screenshot_at": 3.0, "seed": -1, "start_at": 0.0}
 	for arg in OS.get_cmdline_user_args():
 		var value: String = arg.get_slice("=", 1)
 		if arg.begins_with("--demo-seconds="):
@@ -38,6 +40,8 @@ static func options() -> Dictionary:
 			o["screenshot"] = value
 		elif arg.begins_with("--screenshot-at="):
 			o["screenshot_at"] = maxf(value.to_float(), 0.0)
+		elif arg.begins_with("--start-at="):
+			o["start_at"] = maxf(value.to_float(), 0.0)
 		elif arg.begins_with("--seed="):
 			o["seed"] = value.to_int()
 		else:
