@@ -172,23 +172,39 @@ class HierarchicalStep {
       ws.dof_scale[cols_] = 1.0 / std::sqrt(cost);
       ++cols_;
     }
+    ws.jacobian.topLeftCorner(rows_, cols_).setZero();
   }
 
   int columns() const { return cols_; }
 
-  // J at the pose ws holds (FK and DOF axes), scaled columns, rows in level order.
+  // J at the pose ws holds (FK and DOF axes), scaled columns, rows in level order. Only a goal's
+  // support columns are written: the others are zero from the constructor on (block_limits'
+  // changes keep them zero), so an effector costs its path from the root, not the whole tree.
   void linearize() {
     Eigen::MatrixXd& J = ws_.jacobian;
     for (int k = 0; k < problem_.goals.size; ++k) {
       const Goal& g = problem_.goals[ws_.goal_order[k]].goal;
       const double sw = std::sqrt(g.weight);
       const GoalLinearization lin = tree_linearize_goal(tree_, ws_, g);
-      for (int c = 0; c < cols_; ++c) {
-        const glm::dvec3 col = tree_jacobian_column(tree_, ws_, g, lin, ws_.active_dofs[c]);
+      auto put = [&](int c, const glm::dvec3& col) {
         const double s = sw * ws_.dof_scale[c];
         J(3 * k, c) = s * col.x;
         J(3 * k + 1, c) = s * col.y;
         J(3 * k + 2, c) = s * col.z;
+      };
+      const int* support = tree_.support_list(g.effector);
+      for (int i = 0; i < tree_.support_count(g.effector); ++i) {
+        const int j = support[i];
+        const int d0 = tree_.dof_offset(j);
+        if (j == 0 && tree_.floating_root())
+          for (int d = 0; d < 3; ++d) put(ws_.dof_column[d], translation_column(g.kind, ws_.dof_axes[d], lin));
+        if (tree_.joint_type(j) == JointType::kPrismatic) {
+          put(ws_.dof_column[d0], translation_column(g.kind, ws_.dof_axes[d0], lin));
+          continue;
+        }
+        const glm::dvec3 lever = lin.point - ws_.joint_origins[j];
+        for (int d = d0; d < d0 + tree_.dof_count_of(j); ++d)
+          put(ws_.dof_column[d], rotation_column(g.kind, ws_.dof_axes[d], lever, lin));
       }
     }
   }
@@ -226,9 +242,18 @@ class HierarchicalStep {
   }
 
  private:
+  // Level by level with one factor of the rows above: F (ws.gram_factor) is the Cholesky factor
+  // of G = M + ridge over the rows of the levels done so far, grown a level at a time by block
+  // Cholesky (Golub & Van Loan, sec. 4.2.6): with W = F^-1 A Jl^T, the next level's null-space
+  // matrix is K = Jl Jl^T - W^T W (the rows' projection, never formed as n x n), and F's new block
+  // row is [W^T, chol(Jl Jl^T - W^T W + ridge)]. Each level costs one triangular solve with its
+  // rows as right-hand sides, and the posture's projector reuses F whole.
   bool hierarchical(const double* params, const Eigen::VectorXd& residual, double mu, double posture_gain) {
     const auto J = ws_.jacobian.topLeftCorner(rows_, cols_);
     const auto M = ws_.row_square.topLeftCorner(rows_, rows_);  // gram() of this J
+    const bool posture = !problem_.posture.empty() && posture_gain > 0.0;
+    auto F = ws_.gram_factor.topLeftCorner(rows_, rows_);
+    const double ridge = kProjectorRidge * std::max(M.diagonal().maxCoeff(), 1e-300);
     auto y = ws_.dof_vec_a.head(cols_);
     y.setZero();
     for (int l = 0; l < served_; ++l) {
@@ -236,46 +261,56 @@ class HierarchicalStep {
       auto r = ws_.row_vec_a.segment(b, m);
       r = residual.segment(b, m);
       r.noalias() -= J.middleRows(b, m) * y;
-      // The level's rows in the null space of the rows A above it are Jt = Jl - C^T A with
-      // C = G^-1 A Jl^T; Jt is never formed: K = Jt Jt^T = Jl Jl^T - (Jl A^T) C, and the step
-      // Jt^T z = Jl^T z - A^T (C z).
-      auto K = ws_.row_factor.block(b, b, m, m);
-      K = M.block(b, b, m, m);
-      auto C = ws_.coupling.topLeftCorner(b, m);
+      // S = Jt Jt^T with Jt = Jl (I - A^T G^-1 A), the level's rows in the null space above.
+      auto S = ws_.coupling.block(b, b, m, m);
+      S = M.block(b, b, m, m);
+      auto W = F.block(0, b, b, m);  // F's upper triangle is free: W = F^-1 A Jl^T lives there
       if (b > 0) {
-        if (!factor_above(M, b)) return false;
-        C = M.block(0, b, b, m);
-        solve_above(b, C);
-        K.noalias() -= M.block(b, 0, m, b) * C;
+        W = M.block(0, b, b, m);
+        F.topLeftCorner(b, b).triangularView<Eigen::Lower>().solveInPlace(W);
+        S.noalias() -= W.transpose() * W;
       }
+      auto K = ws_.row_factor.block(b, b, m, m);
+      K = S;
       K.diagonal().array() += mu;
       linalg::cholesky_factor(K, m, kMinPivot2);
       linalg::cholesky_solve(K, r, m);
+      // Step Jt^T z = Jl^T z - A^T G^-1 A Jl^T z = Jl^T z - A^T F^-T (W z).
       y.noalias() += J.middleRows(b, m).transpose() * r;
       if (b > 0) {
         auto w = ws_.row_vec_b.head(b);
-        w.noalias() = C * r;
+        w.noalias() = W * r;
+        F.topLeftCorner(b, b).triangularView<Eigen::Lower>().transpose().solveInPlace(w);
         y.noalias() -= J.topRows(b).transpose() * w;
       }
+      // Grow F by this level when a lower level (or the posture) will project against it.
+      if (l + 1 < served_ || (posture && l + 1 == levels_.count)) {
+        if (b > 0) F.block(b, 0, m, b) = W.transpose();
+        auto D = F.block(b, b, m, m);
+        D.triangularView<Eigen::Lower>() = S;
+        D.diagonal().array() += ridge;
+        linalg::cholesky_factor(D, m, kMinPivot2);
+      }
     }
-    if (!problem_.posture.empty() && posture_gain > 0.0) {
+    if (posture) {
       auto v = ws_.dof_vec_b.head(cols_);
       for (int c = 0; c < cols_; ++c) {
         const int d = ws_.active_dofs[c];
         v[c] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]) / ws_.dof_scale[c];
       }
       if (rows_ > 0) {
-        if (!factor_above(M, rows_)) return false;
         auto u = ws_.row_vec_b.head(rows_);
         u.noalias() = J * v;
-        solve_above(rows_, u);
+        const auto L = F.triangularView<Eigen::Lower>();
+        L.solveInPlace(u);
+        L.transpose().solveInPlace(u);
         v.noalias() -= J.transpose() * u;
       }
       y += v;
     }
     ws_.step.setZero();
     for (int c = 0; c < cols_; ++c) ws_.step[ws_.active_dofs[c]] = ws_.dof_scale[c] * y[c];
-    if (!problem_.posture.empty() && posture_gain > 0.0)
+    if (posture)
       for (int d = 0; d < tree_.dof_count(); ++d)
         if (!is_active(d)) ws_.step[d] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]);
     return ws_.step.allFinite();
@@ -283,7 +318,9 @@ class HierarchicalStep {
 
   // M = J J^T from the tree's structure: goals a and b share only the columns of their common
   // supports, which are the common prefix of their root-first support lists (Pinocchio's
-  // "supports"), so each 3x3 block sums over those few columns instead of all of them.
+  // "supports"), so each 3x3 block sums over those few columns instead of all of them. A joint's
+  // columns are adjacent (active_dofs keeps the DOF order), so a block sums 3 x 3 products per
+  // joint, in registers.
   template <class Gram>
   void gram(Gram& M) const {
     const double* J = ws_.jacobian.data();
@@ -297,44 +334,29 @@ class HierarchicalStep {
         const int eb = problem_.goals[ws_.goal_order[b]].goal.effector;
         const int* sb = tree_.support_list(eb);
         const int common_end = std::min(na, tree_.support_count(eb));
-        double block[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-        auto add_column = [&](int c) {
-          const double* col = J + c * ld;
-          for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) block[i][k] += col[3 * a + i] * col[3 * b + k];
+        double b00 = 0, b01 = 0, b02 = 0, b10 = 0, b11 = 0, b12 = 0, b20 = 0, b21 = 0, b22 = 0;
+        auto add_columns = [&](int c, int width) {
+          for (int k = 0; k < width; ++k) {
+            const double* col = J + (c + k) * ld;
+            const double a0 = col[3 * a], a1 = col[3 * a + 1], a2 = col[3 * a + 2];
+            const double c0 = col[3 * b], c1 = col[3 * b + 1], c2 = col[3 * b + 2];
+            b00 += a0 * c0, b01 += a0 * c1, b02 += a0 * c2;
+            b10 += a1 * c0, b11 += a1 * c1, b12 += a1 * c2;
+            b20 += a2 * c0, b21 += a2 * c1, b22 += a2 * c2;
+          }
         };
         for (int s = 0; s < common_end && sa[s] == sb[s]; ++s) {
           const int j = sa[s];
-          if (j == 0 && tree_.floating_root())
-            for (int d = 0; d < 3; ++d) add_column(ws_.dof_column[d]);
-          for (int d = 0; d < tree_.dof_count_of(j); ++d) add_column(ws_.dof_column[tree_.dof_offset(j) + d]);
+          if (j == 0 && tree_.floating_root()) add_columns(ws_.dof_column[0], 3);
+          add_columns(ws_.dof_column[tree_.dof_offset(j)], tree_.dof_count_of(j));
         }
+        const double block[3][3] = {{b00, b01, b02}, {b10, b11, b12}, {b20, b21, b22}};
         for (int i = 0; i < 3; ++i)
           for (int k = 0; k < 3; ++k) {
             M(3 * a + i, 3 * b + k) = block[i][k];
             M(3 * b + k, 3 * a + i) = block[i][k];
           }
       }
-    }
-  }
-
-  // Factors G = M[0:b, 0:b] + ridge (Cholesky, in place in ws.gram_factor's lower triangle).
-  template <class Gram>
-  bool factor_above(const Gram& M, int b) {
-    auto F = ws_.gram_factor.topLeftCorner(b, b);
-    F = M.topLeftCorner(b, b);
-    const double ridge = kProjectorRidge * std::max(F.diagonal().maxCoeff(), 1e-300);
-    F.diagonal().array() += ridge;
-    linalg::cholesky_factor(F, b, kMinPivot2);
-    return true;
-  }
-  // X <- G^-1 X, column by column, with the factor factor_above(M, b) left.
-  template <class Rhs>
-  void solve_above(int b, Rhs& X) {
-    const auto F = ws_.gram_factor.topLeftCorner(b, b);
-    for (Eigen::Index c = 0; c < X.cols(); ++c) {
-      auto column = X.col(c);
-      linalg::cholesky_solve(F, column, b);
     }
   }
 
