@@ -23,7 +23,6 @@
 #include <cmath>
 
 #include "core/kinematics.hpp"
-#include "core/math/linalg.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_solvers.hpp"
@@ -39,6 +38,10 @@ constexpr double kProjectorRidge = 1e-10;
 // second-order change a lower level's null-space step makes).
 constexpr double kSameCost = 1e-9;
 constexpr int kLimitPasses = 3;
+// The first damping's share of the squared weighted residual |e|^2 (m^2) when that is below
+// dls_initial_damping (solve_tree_dls): 0.1 makes the body bench's warm frames two iterations
+// instead of three and leaves cold starts (|e|^2 ~ 0.1-10) at dls_initial_damping.
+constexpr double kResidualDamping = 0.1;
 // The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
 // damping added first, so this only catches rounding).
 constexpr double kMinPivot2 = 1e-200;
@@ -132,6 +135,67 @@ bool any_limited_joint(const Tree& tree, const TreeWorkspace& ws, int columns, V
     c += width;
   }
   return false;
+}
+
+// Small dense kernels on column-major blocks (pointer + leading dimension), column-oriented so the
+// inner loops run down contiguous columns. The levels' matrices are 3 rows per goal (18 x 18 for
+// six 6-D goals): too small for Eigen's blocked products, whose packing costs more than the
+// arithmetic here.
+struct Cols {
+  double* p;
+  Eigen::Index ld;
+  double& operator()(int i, int j) const { return p[i + j * ld]; }
+  double* col(int j) const { return p + j * ld; }
+};
+template <class Block>
+Cols cols_of(Block&& b) {
+  return Cols{b.data(), b.outerStride()};
+}
+
+// A = L L^T in place (lower triangle; the upper is not read), right-looking; pivots below
+// min_pivot2 are raised to it (linalg::cholesky_factor's rule).
+void cholesky_lower(Cols a, int n, double min_pivot2) {
+  for (int j = 0; j < n; ++j) {
+    double* cj = a.col(j);
+    const double d = std::sqrt(std::max(cj[j], min_pivot2));
+    const double inv = 1.0 / d;
+    cj[j] = d;
+    for (int i = j + 1; i < n; ++i) cj[i] *= inv;
+    for (int k = j + 1; k < n; ++k) {
+      double* ck = a.col(k);
+      const double f = cj[k];
+      for (int i = k; i < n; ++i) ck[i] -= f * cj[i];
+    }
+  }
+}
+// x <- L^-1 x (forward substitution) for a vector with stride 1.
+void lower_solve(Cols l, int n, double* x) {
+  for (int k = 0; k < n; ++k) {
+    const double* ck = l.col(k);
+    const double v = (x[k] /= ck[k]);
+    for (int i = k + 1; i < n; ++i) x[i] -= v * ck[i];
+  }
+}
+// x <- L^-T x (back substitution).
+void lower_transpose_solve(Cols l, int n, double* x) {
+  for (int k = n - 1; k >= 0; --k) {
+    const double* ck = l.col(k);
+    double s = x[k];
+    for (int i = k + 1; i < n; ++i) s -= ck[i] * x[i];
+    x[k] = s / ck[k];
+  }
+}
+// S -= W^T W on S's lower triangle (W: rows x cols, S: cols x cols).
+void subtract_gram_of_columns(Cols w, int rows, int cols, Cols s) {
+  for (int j = 0; j < cols; ++j) {
+    const double* wj = w.col(j);
+    for (int i = j; i < cols; ++i) {
+      const double* wi = w.col(i);
+      double d = 0.0;
+      for (int k = 0; k < rows; ++k) d += wi[k] * wj[k];
+      s(i, j) -= d;
+    }
+  }
 }
 
 class HierarchicalStep {
@@ -262,34 +326,40 @@ class HierarchicalStep {
       r = residual.segment(b, m);
       r.noalias() -= J.middleRows(b, m) * y;
       // S = Jt Jt^T with Jt = Jl (I - A^T G^-1 A), the level's rows in the null space above.
-      auto S = ws_.coupling.block(b, b, m, m);
-      S = M.block(b, b, m, m);
-      auto W = F.block(0, b, b, m);  // F's upper triangle is free: W = F^-1 A Jl^T lives there
+      const Cols S = cols_of(ws_.coupling.block(b, b, m, m));
+      for (int j = 0; j < m; ++j)
+        for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
+      const Cols W = cols_of(F.block(0, b, b, m));  // F's upper triangle is free: W = F^-1 A Jl^T
       if (b > 0) {
-        W = M.block(0, b, b, m);
-        F.topLeftCorner(b, b).triangularView<Eigen::Lower>().solveInPlace(W);
-        S.noalias() -= W.transpose() * W;
+        for (int j = 0; j < m; ++j) {
+          for (int i = 0; i < b; ++i) W(i, j) = M(i, b + j);
+          lower_solve(cols_of(F), b, W.col(j));
+        }
+        subtract_gram_of_columns(W, b, m, S);
       }
-      auto K = ws_.row_factor.block(b, b, m, m);
-      K = S;
-      K.diagonal().array() += mu;
-      linalg::cholesky_factor(K, m, kMinPivot2);
-      linalg::cholesky_solve(K, r, m);
+      const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
+      for (int j = 0; j < m; ++j)
+        for (int i = j; i < m; ++i) K(i, j) = S(i, j) + (i == j ? mu : 0.0);
+      cholesky_lower(K, m, kMinPivot2);
+      lower_solve(K, m, r.data());
+      lower_transpose_solve(K, m, r.data());
       // Step Jt^T z = Jl^T z - A^T G^-1 A Jl^T z = Jl^T z - A^T F^-T (W z).
       y.noalias() += J.middleRows(b, m).transpose() * r;
       if (b > 0) {
         auto w = ws_.row_vec_b.head(b);
-        w.noalias() = W * r;
-        F.topLeftCorner(b, b).triangularView<Eigen::Lower>().transpose().solveInPlace(w);
+        w.setZero();
+        for (int j = 0; j < m; ++j) w += r[j] * Eigen::Map<const Eigen::VectorXd>(W.col(j), b);
+        lower_transpose_solve(cols_of(F), b, w.data());
         y.noalias() -= J.topRows(b).transpose() * w;
       }
       // Grow F by this level when a lower level (or the posture) will project against it.
       if (l + 1 < served_ || (posture && l + 1 == levels_.count)) {
-        if (b > 0) F.block(b, 0, m, b) = W.transpose();
-        auto D = F.block(b, b, m, m);
-        D.triangularView<Eigen::Lower>() = S;
-        D.diagonal().array() += ridge;
-        linalg::cholesky_factor(D, m, kMinPivot2);
+        const Cols D = cols_of(F.block(b, b, m, m));
+        for (int j = 0; j < b; ++j)
+          for (int i = 0; i < m; ++i) F(b + i, j) = W(j, i);
+        for (int j = 0; j < m; ++j)
+          for (int i = j; i < m; ++i) D(i, j) = S(i, j) + (i == j ? ridge : 0.0);
+        cholesky_lower(D, m, kMinPivot2);
       }
     }
     if (posture) {
@@ -301,9 +371,8 @@ class HierarchicalStep {
       if (rows_ > 0) {
         auto u = ws_.row_vec_b.head(rows_);
         u.noalias() = J * v;
-        const auto L = F.triangularView<Eigen::Lower>();
-        L.solveInPlace(u);
-        L.transpose().solveInPlace(u);
+        lower_solve(cols_of(F), rows_, u.data());
+        lower_transpose_solve(cols_of(F), rows_, u.data());
         v.noalias() -= J.transpose() * u;
       }
       y += v;
@@ -512,7 +581,13 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   tree_dof_axes(tree, params, ws);
   model.linearize();
 
-  const double initial_mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
+  // The damping starts at dls_initial_damping, or at kResidualDamping |e|^2 when that is smaller
+  // (Yamashita & Fukushima 2001; Fan & Yuan 2005: mu = theta |e|^2 keeps Levenberg-Marquardt
+  // quadratically convergent near a solution): a warm start from the previous frame's pose is millimetres off,
+  // where the Gauss-Newton step is already accurate and a fixed damping would only slow it down
+  // (one more iteration per frame); from far away it changes nothing.
+  const double initial_mu =
+      std::clamp(std::min(o.dls_initial_damping, kResidualDamping * 2.0 * current.cost), o.dls_min_damping, o.dls_max_damping);
   double mu = initial_mu;
   double nu = 2.0;
   double posture_gain = 1.0;
