@@ -76,10 +76,9 @@ double posture_cost(const Tree& tree, const TreeProblem& problem, const double* 
 // Level costs at or below `met_cost` count as met (equal), whatever their value.
 using LevelCosts = std::array<double, kMaxPriorityLevels>;
 
-// +1 when `trial` is better than `current` level by level, -1 when worse, 0 when no level (nor the
-// posture) tells them apart. Level costs at or below `met_cost` count as met (equal).
-int compare(const TreeErrors& trial, double trial_posture, const TreeErrors& current, double current_posture,
-            const LevelCosts& met_cost) {
+// +1 when `trial` is better than `current` level by level, -1 when worse, 0 when no level tells
+// them apart. Level costs at or below `met_cost` count as met (equal).
+int compare_levels(const TreeErrors& trial, const TreeErrors& current, const LevelCosts& met_cost) {
   for (int l = 0; l < kMaxPriorityLevels; ++l) {
     const double a = trial.level_cost[l], b = current.level_cost[l];
     const bool trial_met = trial.level_met[l] || a <= met_cost[l];
@@ -88,17 +87,20 @@ int compare(const TreeErrors& trial, double trial_posture, const TreeErrors& cur
     if (!(a <= b * (1.0 + kSameCost))) return -1;  // worse (or NaN)
     if (a < b * (1.0 - kSameCost)) return 1;
   }
-  if (trial_posture < current_posture * (1.0 - kSameCost)) return 1;
-  return trial_posture > current_posture * (1.0 + kSameCost) ? -1 : 0;
+  return 0;
 }
 
 // Better with levels met within `met_cost` counted as met; where that ties, better strictly (each
-// goal within its tolerance), so progress inside the band still counts.
+// goal within its tolerance), so progress inside the band still counts; only where the levels
+// tie strictly, a lower posture cost. The posture never buys its progress with a goal's accuracy,
+// not even inside the relaxed band: there it would undo what the strict phase must then redo.
 bool better(const TreeErrors& trial, double trial_posture, const TreeErrors& current, double current_posture,
             const LevelCosts& met_cost) {
-  const int relaxed = compare(trial, trial_posture, current, current_posture, met_cost);
+  const int relaxed = compare_levels(trial, current, met_cost);
   if (relaxed != 0) return relaxed > 0;
-  return compare(trial, trial_posture, current, current_posture, LevelCosts{}) > 0;
+  const int strict = compare_levels(trial, current, LevelCosts{});
+  if (strict != 0) return strict > 0;
+  return trial_posture < current_posture * (1.0 - kSameCost);
 }
 
 // The cost each level has when every one of its goals is `factor` times its tolerance off.
