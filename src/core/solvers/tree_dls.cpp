@@ -154,20 +154,18 @@ Cols cols_of(Block&& b) {
   return Cols{b.data(), b.outerStride()};
 }
 
+using Seg = Eigen::Map<Eigen::VectorXd>;
+using ConstSeg = Eigen::Map<const Eigen::VectorXd>;
+
 // A = L L^T in place (lower triangle; the upper is not read), right-looking; pivots below
 // min_pivot2 are raised to it (linalg::cholesky_factor's rule).
 void cholesky_lower(Cols a, int n, double min_pivot2) {
   for (int j = 0; j < n; ++j) {
     double* cj = a.col(j);
     const double d = std::sqrt(std::max(cj[j], min_pivot2));
-    const double inv = 1.0 / d;
     cj[j] = d;
-    for (int i = j + 1; i < n; ++i) cj[i] *= inv;
-    for (int k = j + 1; k < n; ++k) {
-      double* ck = a.col(k);
-      const double f = cj[k];
-      for (int i = k; i < n; ++i) ck[i] -= f * cj[i];
-    }
+    Seg(cj + j + 1, n - j - 1) *= 1.0 / d;
+    for (int k = j + 1; k < n; ++k) Seg(a.col(k) + k, n - k) -= cj[k] * ConstSeg(cj + k, n - k);
   }
 }
 // x <- L^-1 x (forward substitution) for a vector with stride 1.
@@ -175,28 +173,21 @@ void lower_solve(Cols l, int n, double* x) {
   for (int k = 0; k < n; ++k) {
     const double* ck = l.col(k);
     const double v = (x[k] /= ck[k]);
-    for (int i = k + 1; i < n; ++i) x[i] -= v * ck[i];
+    Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
   }
 }
 // x <- L^-T x (back substitution).
 void lower_transpose_solve(Cols l, int n, double* x) {
   for (int k = n - 1; k >= 0; --k) {
     const double* ck = l.col(k);
-    double s = x[k];
-    for (int i = k + 1; i < n; ++i) s -= ck[i] * x[i];
-    x[k] = s / ck[k];
+    x[k] = (x[k] - ConstSeg(ck + k + 1, n - k - 1).dot(ConstSeg(x + k + 1, n - k - 1))) / ck[k];
   }
 }
 // S -= W^T W on S's lower triangle (W: rows x cols, S: cols x cols).
 void subtract_gram_of_columns(Cols w, int rows, int cols, Cols s) {
   for (int j = 0; j < cols; ++j) {
-    const double* wj = w.col(j);
-    for (int i = j; i < cols; ++i) {
-      const double* wi = w.col(i);
-      double d = 0.0;
-      for (int k = 0; k < rows; ++k) d += wi[k] * wj[k];
-      s(i, j) -= d;
-    }
+    const ConstSeg wj(w.col(j), rows);
+    for (int i = j; i < cols; ++i) s(i, j) -= ConstSeg(w.col(i), rows).dot(wj);
   }
 }
 
