@@ -128,6 +128,15 @@ double progress(const TreeErrors& after, double after_posture, const TreeErrors&
   return gain;
 }
 
+// True when ball params `p` are inside limits `l` for sure, without trigonometry: neither the
+// swing nor |twist| exceeds the rotation angle |p| (cos(angle / 2) = cos(swing / 2) cos(twist / 2);
+// the kinematics' ball_bounds makes the same test). Most joints pass it on most steps.
+bool ball_surely_inside(const JointLimits& l, const double* p) {
+  const double angle = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+  return (!l.has_cone_limit || angle < l.cone_angle) &&
+         (!l.has_twist_limit || (angle < l.twist_max && -angle > l.twist_min));
+}
+
 // How far (rad) ball params `p` are outside limits `l`: the largest of swing - cone, twist - max and
 // min - twist (<= 0 inside); the measure joint_within_limits tests.
 double ball_excess(const JointLimits& l, const double* p) {
@@ -501,7 +510,8 @@ class HierarchicalStep {
       // A ball resting on its boundary slides along it (the active set took the outward part): the
       // projection takes back what the curved boundary adds, a second-order amount.
       double p[3] = {params[d] + s[0], params[d + 1] + s[1], params[d + 2] + s[2]};
-      if (!joint_within_limits(JointType::kBall, l, p, kSlack) && !ball_params_on_boundary(l, params + d)) {
+      if (!ball_surely_inside(l, p) && !joint_within_limits(JointType::kBall, l, p, kSlack) &&
+          !ball_params_on_boundary(l, params + d)) {
         // The largest t in [0, 1] with params + t step within the limits: regula falsi with the
         // Illinois modification (Dowell & Jarratt 1971) on h(t) = excess - kSlack / 2, which is
         // <= 0 at 0 and > 0 at 1; it ends inside, within kSlack / 2 of the bound, in a handful of
@@ -587,7 +597,13 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
       trial[d] = params[d] + std::clamp(step[d], -o.max_step_angle, o.max_step_angle);
     }
   }
-  project_tree_to_limits(tree, trial);
+  // Onto the limits (project_tree_to_limits, skipping the balls surely inside).
+  for (int j = 0; j < tree.joint_count(); ++j) {
+    if (!tree.has_limits(j)) continue;
+    double* p = trial + tree.dof_offset(j);
+    if (tree.joint_type(j) == JointType::kBall && ball_surely_inside(tree.limits(j), p)) continue;
+    project_joint_params(tree.joint_type(j), tree.limits(j), p);
+  }
 }
 
 // True when an active joint rests on a bound of its limits (a hinge or slide on hinge_min/max, a
