@@ -128,15 +128,6 @@ double progress(const TreeErrors& after, double after_posture, const TreeErrors&
   return gain;
 }
 
-// True when ball params `p` are inside limits `l` for sure, without trigonometry: neither the
-// swing nor |twist| exceeds the rotation angle |p| (cos(angle / 2) = cos(swing / 2) cos(twist / 2);
-// the kinematics' ball_bounds makes the same test). Most joints pass it on most steps.
-bool ball_surely_inside(const JointLimits& l, const double* p) {
-  const double angle = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-  return (!l.has_cone_limit || angle < l.cone_angle) &&
-         (!l.has_twist_limit || (angle < l.twist_max && -angle > l.twist_min));
-}
-
 // How far (rad) ball params `p` are outside limits `l`: the largest of swing - cone, twist - max and
 // min - twist (<= 0 inside); the measure joint_within_limits tests.
 double ball_excess(const JointLimits& l, const double* p) {
@@ -597,13 +588,7 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
       trial[d] = params[d] + std::clamp(step[d], -o.max_step_angle, o.max_step_angle);
     }
   }
-  // Onto the limits (project_tree_to_limits, skipping the balls surely inside).
-  for (int j = 0; j < tree.joint_count(); ++j) {
-    if (!tree.has_limits(j)) continue;
-    double* p = trial + tree.dof_offset(j);
-    if (tree.joint_type(j) == JointType::kBall && ball_surely_inside(tree.limits(j), p)) continue;
-    project_joint_params(tree.joint_type(j), tree.limits(j), p);
-  }
+  project_tree_to_limits(tree, trial);
 }
 
 // True when an active joint rests on a bound of its limits (a hinge or slide on hinge_min/max, a
@@ -664,7 +649,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   HierarchicalStep model(tree, problem, ws);
   double* residual = ws.residual.data();
 
-  tree_forward_kinematics(tree, params, ws);
+  // ws holds the FK of params (solve_tree() measured the start pose).
   TreeErrors current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), residual, nullptr);
   double current_posture = posture_cost(tree, problem, params);
   tree_dof_axes(tree, params, ws);
