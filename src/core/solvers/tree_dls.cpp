@@ -40,7 +40,7 @@ constexpr double kSameCost = 1e-9;
 constexpr int kLimitPasses = 3;
 // The first damping's share of the squared weighted residual |e|^2 (m^2) when that is below
 // dls_initial_damping (solve_tree_dls): 0.1 made the body bench's median warm frame two
-// iterations instead of three (0.2 |e|^2 did not) and leaves cold starts (|e|^2 ~ 0.1-10) at
+// iterations instead of three (|e|^2 itself did not) and leaves cold starts (|e|^2 ~ 0.1-10) at
 // dls_initial_damping.
 constexpr double kResidualDamping = 0.1;
 // A step whose progress() (the largest relative gain of a level not met, or of the posture) is at
