@@ -20,8 +20,9 @@
 // whole body (for the stack: all five chain solves and the forward kinematics that places each
 // chain's base); the wall clock (steady_clock) is recorded beside it.
 //
-// Usage: body_bench [--out DIR] [--quick] [--frames N] [--clips DIR]
-//   writes DIR/body.json (default build/bench) and prints one line per row.
+// Usage: body_bench [--out DIR] [--quick] [--frames N] [--clips DIR] [--solver ID] [--start cold|warm]
+//   writes DIR/body.json (default build/bench) and prints one line per row; --solver and --start
+//   keep only the rows of that solver id (e.g. dls, chain_stack_dls) or start, for profiling.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -278,13 +279,17 @@ int main(int argc, char** argv) {
   std::string clips_dir = "/usr/share/assimp/models/BVH";
   bool quick = false;
   int max_frames = 0;  // 0 = every frame
+  std::string only_solver;  // empty = every solver
+  std::string only_start;   // empty = both
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--out") && i + 1 < argc) out_dir = argv[++i];
     else if (!std::strcmp(argv[i], "--clips") && i + 1 < argc) clips_dir = argv[++i];
     else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc) max_frames = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--solver") && i + 1 < argc) only_solver = argv[++i];
+    else if (!std::strcmp(argv[i], "--start") && i + 1 < argc) only_start = argv[++i];
     else if (!std::strcmp(argv[i], "--quick")) quick = true;
     else {
-      std::fprintf(stderr, "usage: body_bench [--out DIR] [--quick] [--frames N] [--clips DIR]\n");
+      std::fprintf(stderr, "usage: body_bench [--out DIR] [--quick] [--frames N] [--clips DIR] [--solver ID] [--start cold|warm]\n");
       return 2;
     }
   }
@@ -359,7 +364,9 @@ int main(int argc, char** argv) {
     for (auto& s : body::make_tree_solvers(r.model, options, tree_note)) solvers.push_back(std::move(s));
     if (!tree_note.empty()) std::fprintf(stderr, "[body] %s: tree solvers: %s\n", spec.name, tree_note.c_str());
     for (auto& solver : solvers) {
+      if (!only_solver.empty() && solver->id() != only_solver) continue;
       for (bool warm : {false, true}) {
+        if (!only_start.empty() && only_start != (warm ? "warm" : "cold")) continue;
         const Row w = run(r, *solver, warm);
         std::printf("%-12s %-18s %-5s %6d %7.2f%% %9.1f %9.1f %9.2f %9.3f %9.3f %6d %6.1f%s%s\n", w.clip.c_str(),
                     w.solver.c_str(), w.start.c_str(), w.frames,

@@ -39,13 +39,24 @@ double characteristic_length(const Model& m, int e) {
 
 class TreeBody : public BodySolver {
  public:
+  // rest_posture: the problem also holds a posture task, the skeleton's rest pose (every joint
+  // at params 0: the BVH's own T-pose, known without the recording) at full stiffness on every
+  // joint (the root's 6 params, which the hips goal fixes anyway, have no preference); the row is
+  // then named "<solver>_rest_posture".
   TreeBody(const Model& m, std::shared_ptr<const ikchain::Tree> tree, ikchain::SolverKind kind,
-           const ikchain::SolverOptions& o)
+           const ikchain::SolverOptions& o, bool rest_posture = false)
       : tree_holder_(std::move(tree)), tree_(*tree_holder_), kind_(kind), options_(o),
         ws_(tree_, 2 * kEffectorCount), params_(Eigen::VectorXd::Zero(tree_.dof_count())) {
     for (int e = 0; e < kEffectorCount; ++e) length_[e] = characteristic_length(m, e);
+    if (rest_posture) {
+      posture_.assign(tree_.dof_count(), 0.0);
+      posture_stiffness_.assign(tree_.dof_count(), 1.0);
+      for (int d = 0; d < 6; ++d) posture_stiffness_[d] = 0.0;
+    }
   }
-  std::string id() const override { return ikchain::to_string(kind_); }
+  std::string id() const override {
+    return std::string(ikchain::to_string(kind_)) + (posture_.empty() ? "" : "_rest_posture");
+  }
 
   void set_goals(const Targets& t) {
     for (int e = 0; e < kEffectorCount; ++e) {
@@ -55,17 +66,24 @@ class TreeBody : public BodySolver {
     }
   }
 
+  ikchain::TreeProblem problem() const {
+    ikchain::TreeProblem p;
+    p.goals = ikchain::Span<const ikchain::TreeGoal>(goals_, 2 * kEffectorCount);
+    p.posture = ikchain::Span<const double>(posture_.data(), static_cast<int>(posture_.size()));
+    p.posture_stiffness =
+        ikchain::Span<const double>(posture_stiffness_.data(), static_cast<int>(posture_stiffness_.size()));
+    return p;
+  }
+
   ikchain::Message validate(const Targets& t) {
     set_goals(t);
-    ikchain::TreeProblem problem;
-    problem.goals = ikchain::Span<const ikchain::TreeGoal>(goals_, 2 * kEffectorCount);
+    const ikchain::TreeProblem problem = this->problem();
     return ikchain::validate_tree_inputs(kind_, tree_, problem, options_, ws_, params_);
   }
 
   bool solve(const Targets& t, double* params, int& iterations, std::string& note) override {
     set_goals(t);
-    ikchain::TreeProblem problem;
-    problem.goals = ikchain::Span<const ikchain::TreeGoal>(goals_, 2 * kEffectorCount);
+    const ikchain::TreeProblem problem = this->problem();
     Eigen::Map<Eigen::VectorXd> q(params, tree_.dof_count());
     const ikchain::TreeSolveResult r = ikchain::solve_tree(kind_, tree_, problem, options_, ws_, q);
     iterations = r.summary.iterations;
@@ -84,6 +102,7 @@ class TreeBody : public BodySolver {
   ikchain::TreeWorkspace ws_;
   Eigen::VectorXd params_;
   ikchain::TreeGoal goals_[2 * kEffectorCount];
+  std::vector<double> posture_, posture_stiffness_;  // empty: no posture task
   double length_[kEffectorCount];
 };
 
@@ -156,6 +175,9 @@ std::vector<std::unique_ptr<BodySolver>> make_tree_solvers(const Model& m, const
       continue;
     }
     out.push_back(std::move(s));
+    // DLS again with the rest pose as its posture task (issue 14's redundancy resolution: MPJPE).
+    if (info.kind == ikchain::SolverKind::kDLS)
+      out.push_back(std::make_unique<TreeBody>(m, tree, info.kind, options, /*rest_posture=*/true));
   }
   return out;
 }

@@ -163,9 +163,21 @@ TreeErrors tree_measure(const Tree& tree, const TreeProblem& problem, const Solv
   return out;
 }
 
+bool ball_surely_inside(const JointLimits& l, const double* p) {
+  const double angle = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+  return (!l.has_cone_limit || angle < l.cone_angle) &&
+         (!l.has_twist_limit || (angle < l.twist_max && -angle > l.twist_min));
+}
+
 void project_tree_to_limits(const Tree& tree, double* params) {
-  for (int i = 0; i < tree.joint_count(); ++i)
-    if (tree.has_limits(i)) project_joint_params(tree.joint_type(i), tree.limits(i), params + tree.dof_offset(i));
+  for (int i = 0; i < tree.joint_count(); ++i) {
+    if (!tree.has_limits(i)) continue;
+    const JointLimits& l = tree.limits(i);
+    double* p = params + tree.dof_offset(i);
+    // Most joints are surely inside: they skip the projection's exp, swing-twist and log.
+    if (tree.joint_type(i) == JointType::kBall && ball_surely_inside(l, p)) continue;
+    project_joint_params(tree.joint_type(i), l, p);
+  }
 }
 
 bool within_tree_limits(const Tree& tree, const double* params, double slack) {

@@ -23,7 +23,6 @@
 #include <cmath>
 
 #include "core/kinematics.hpp"
-#include "core/math/linalg.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_solvers.hpp"
@@ -39,6 +38,16 @@ constexpr double kProjectorRidge = 1e-10;
 // second-order change a lower level's null-space step makes).
 constexpr double kSameCost = 1e-9;
 constexpr int kLimitPasses = 3;
+// The first damping's share of the squared weighted residual |e|^2 (m^2) when that is below
+// dls_initial_damping (solve_tree_dls): 0.1 made the body bench's median warm frame two
+// iterations instead of three (|e|^2 itself did not) and leaves cold starts (|e|^2 ~ 0.1-10) at
+// dls_initial_damping.
+constexpr double kResidualDamping = 0.1;
+// A step whose progress() (the largest relative gain of a level not met, or of the posture) is at
+// least this shows the linear model holds: the next step reuses its Jacobian and factors (a chord
+// step). 0.99 and 0.9 cost the body bench the same instructions; 0.99 takes fewer, surer chord
+// steps. Requiring the gain of every level instead cost 5 % more warm (fewer chord steps).
+constexpr double kChordGain = 0.99;
 // The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
 // damping added first, so this only catches rounding).
 constexpr double kMinPivot2 = 1e-200;
@@ -73,10 +82,9 @@ double posture_cost(const Tree& tree, const TreeProblem& problem, const double* 
 // Level costs at or below `met_cost` count as met (equal), whatever their value.
 using LevelCosts = std::array<double, kMaxPriorityLevels>;
 
-// +1 when `trial` is better than `current` level by level, -1 when worse, 0 when no level (nor the
-// posture) tells them apart. Level costs at or below `met_cost` count as met (equal).
-int compare(const TreeErrors& trial, double trial_posture, const TreeErrors& current, double current_posture,
-            const LevelCosts& met_cost) {
+// +1 when `trial` is better than `current` level by level, -1 when worse, 0 when no level tells
+// them apart. Level costs at or below `met_cost` count as met (equal).
+int compare_levels(const TreeErrors& trial, const TreeErrors& current, const LevelCosts& met_cost) {
   for (int l = 0; l < kMaxPriorityLevels; ++l) {
     const double a = trial.level_cost[l], b = current.level_cost[l];
     const bool trial_met = trial.level_met[l] || a <= met_cost[l];
@@ -85,17 +93,20 @@ int compare(const TreeErrors& trial, double trial_posture, const TreeErrors& cur
     if (!(a <= b * (1.0 + kSameCost))) return -1;  // worse (or NaN)
     if (a < b * (1.0 - kSameCost)) return 1;
   }
-  if (trial_posture < current_posture * (1.0 - kSameCost)) return 1;
-  return trial_posture > current_posture * (1.0 + kSameCost) ? -1 : 0;
+  return 0;
 }
 
 // Better with levels met within `met_cost` counted as met; where that ties, better strictly (each
-// goal within its tolerance), so progress inside the band still counts.
+// goal within its tolerance), so progress inside the band still counts; only where the levels
+// tie strictly, a lower posture cost. The posture never buys its progress with a goal's accuracy,
+// not even inside the relaxed band: there it would undo what the strict phase must then redo.
 bool better(const TreeErrors& trial, double trial_posture, const TreeErrors& current, double current_posture,
             const LevelCosts& met_cost) {
-  const int relaxed = compare(trial, trial_posture, current, current_posture, met_cost);
+  const int relaxed = compare_levels(trial, current, met_cost);
   if (relaxed != 0) return relaxed > 0;
-  return compare(trial, trial_posture, current, current_posture, LevelCosts{}) > 0;
+  const int strict = compare_levels(trial, current, LevelCosts{});
+  if (strict != 0) return strict > 0;
+  return trial_posture < current_posture * (1.0 - kSameCost);
 }
 
 // The cost each level has when every one of its goals is `factor` times its tolerance off.
@@ -119,6 +130,19 @@ double progress(const TreeErrors& after, double after_posture, const TreeErrors&
   return gain;
 }
 
+// How far (rad) ball params `p` are outside limits `l`: the largest of swing - cone, twist - max and
+// min - twist (<= 0 inside); the measure joint_within_limits tests.
+double ball_excess(const JointLimits& l, const double* p) {
+  const glm::dquat q = so3::exp(glm::dvec3(p[0], p[1], p[2]));
+  glm::dquat swing;
+  double twist = 0.0;
+  so3::swing_twist(q, l.twist_axis, swing, twist);
+  double excess = -so3::kPi;
+  if (l.has_twist_limit) excess = std::max({excess, twist - l.twist_max, l.twist_min - twist});
+  if (l.has_cone_limit) excess = std::max(excess, glm::length(so3::log(swing)) - l.cone_angle);
+  return excess;
+}
+
 // Calls visit(joint, first_dof, column) for every limited joint among the active columns, once
 // per joint (a ball's three columns together); stops early when visit returns true, and returns
 // whether it did.
@@ -132,6 +156,58 @@ bool any_limited_joint(const Tree& tree, const TreeWorkspace& ws, int columns, V
     c += width;
   }
   return false;
+}
+
+// Small dense kernels on column-major blocks (pointer + leading dimension), column-oriented so the
+// inner loops run down contiguous columns. The levels' matrices are 3 rows per goal (18 x 18 for
+// six 6-D goals): too small for Eigen's blocked products, whose packing costs more than the
+// arithmetic here.
+struct Cols {
+  double* p;
+  Eigen::Index ld;
+  double& operator()(int i, int j) const { return p[i + j * ld]; }
+  double* col(int j) const { return p + j * ld; }
+};
+template <class Block>
+Cols cols_of(Block&& b) {
+  return Cols{b.data(), b.outerStride()};
+}
+
+using Seg = Eigen::Map<Eigen::VectorXd>;
+using ConstSeg = Eigen::Map<const Eigen::VectorXd>;
+
+// A = L L^T in place (lower triangle; the upper is not read), right-looking; pivots below
+// min_pivot2 are raised to it (linalg::cholesky_factor's rule).
+void cholesky_lower(Cols a, int n, double min_pivot2) {
+  for (int j = 0; j < n; ++j) {
+    double* cj = a.col(j);
+    const double d = std::sqrt(std::max(cj[j], min_pivot2));
+    cj[j] = d;
+    Seg(cj + j + 1, n - j - 1) *= 1.0 / d;
+    for (int k = j + 1; k < n; ++k) Seg(a.col(k) + k, n - k) -= cj[k] * ConstSeg(cj + k, n - k);
+  }
+}
+// x <- L^-1 x (forward substitution) for a vector with stride 1.
+void lower_solve(Cols l, int n, double* x) {
+  for (int k = 0; k < n; ++k) {
+    const double* ck = l.col(k);
+    const double v = (x[k] /= ck[k]);
+    Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
+  }
+}
+// x <- L^-T x (back substitution).
+void lower_transpose_solve(Cols l, int n, double* x) {
+  for (int k = n - 1; k >= 0; --k) {
+    const double* ck = l.col(k);
+    x[k] = (x[k] - ConstSeg(ck + k + 1, n - k - 1).dot(ConstSeg(x + k + 1, n - k - 1))) / ck[k];
+  }
+}
+// S -= W^T W on S's lower triangle (W: rows x cols, S: cols x cols).
+void subtract_gram_of_columns(Cols w, int rows, int cols, Cols s) {
+  for (int j = 0; j < cols; ++j) {
+    const ConstSeg wj(w.col(j), rows);
+    for (int i = j; i < cols; ++i) s(i, j) -= ConstSeg(w.col(i), rows).dot(wj);
+  }
 }
 
 class HierarchicalStep {
@@ -172,23 +248,39 @@ class HierarchicalStep {
       ws.dof_scale[cols_] = 1.0 / std::sqrt(cost);
       ++cols_;
     }
+    ws.jacobian.topLeftCorner(rows_, cols_).setZero();
   }
 
   int columns() const { return cols_; }
 
-  // J at the pose ws holds (FK and DOF axes), scaled columns, rows in level order.
+  // J at the pose ws holds (FK and DOF axes), scaled columns, rows in level order. Only a goal's
+  // support columns are written: the others are zero from the constructor on (block_limits'
+  // changes keep them zero), so an effector costs its path from the root, not the whole tree.
   void linearize() {
     Eigen::MatrixXd& J = ws_.jacobian;
     for (int k = 0; k < problem_.goals.size; ++k) {
       const Goal& g = problem_.goals[ws_.goal_order[k]].goal;
       const double sw = std::sqrt(g.weight);
       const GoalLinearization lin = tree_linearize_goal(tree_, ws_, g);
-      for (int c = 0; c < cols_; ++c) {
-        const glm::dvec3 col = tree_jacobian_column(tree_, ws_, g, lin, ws_.active_dofs[c]);
+      auto put = [&](int c, const glm::dvec3& col) {
         const double s = sw * ws_.dof_scale[c];
         J(3 * k, c) = s * col.x;
         J(3 * k + 1, c) = s * col.y;
         J(3 * k + 2, c) = s * col.z;
+      };
+      const int* support = tree_.support_list(g.effector);
+      for (int i = 0; i < tree_.support_count(g.effector); ++i) {
+        const int j = support[i];
+        const int d0 = tree_.dof_offset(j);
+        if (j == 0 && tree_.floating_root())
+          for (int d = 0; d < 3; ++d) put(ws_.dof_column[d], translation_column(g.kind, ws_.dof_axes[d], lin));
+        if (tree_.joint_type(j) == JointType::kPrismatic) {
+          put(ws_.dof_column[d0], translation_column(g.kind, ws_.dof_axes[d0], lin));
+          continue;
+        }
+        const glm::dvec3 lever = lin.point - ws_.joint_origins[j];
+        for (int d = d0; d < d0 + tree_.dof_count_of(j); ++d)
+          put(ws_.dof_column[d], rotation_column(g.kind, ws_.dof_axes[d], lever, lin));
       }
     }
   }
@@ -198,14 +290,17 @@ class HierarchicalStep {
   // `served`: how many levels (in order) the step serves; the posture only when it is all of them.
   bool compute(const double* params, double mu, double posture_gain, int served) {
     served_ = served;
+    const bool posture = served == levels_.count && posture_gain > 0.0 && !problem_.posture.empty();
     for (int pass = 0; pass <= kLimitPasses; ++pass) {
       auto M = ws_.row_square.topLeftCorner(rows_, rows_);
-      gram(M);  // of J as the limits leave it (correct() reuses it: the same J)
-      if (!hierarchical(params, ws_.residual, mu, served < levels_.count ? 0.0 : posture_gain)) return false;
+      gram(M);  // of J as the limits leave it (correct() and chord() reuse it: the same J)
+      factor(mu, posture);
+      if (!solve(params, ws_.residual, posture ? posture_gain : 0.0)) return false;
       if (pass == kLimitPasses || !block_limits(params)) break;
     }
     const double fraction = fraction_to_bounds(params);
-    if (fraction < 1.0) ws_.step *= fraction;
+    cut_ = fraction < 1.0;
+    if (cut_) ws_.step *= fraction;
     return true;
   }
 
@@ -213,9 +308,24 @@ class HierarchicalStep {
   // are `trial_residual`: the same step with the Jacobian of the pose it came from. A step that
   // serves a lower level drifts the higher ones by its square (the null space is flat only to
   // first order); this takes the drift back without a new linearisation.
-  bool correct(const double* trial_params, const Eigen::VectorXd& trial_residual, double mu) {
-    return hierarchical(trial_params, trial_residual, mu, 0.0);
+  bool correct(const double* trial_params, const Eigen::VectorXd& trial_residual) {
+    return solve(trial_params, trial_residual, 0.0);
   }
+
+  // A chord step (simplified Newton: Deuflhard, "Newton Methods for Nonlinear Problems", sec.
+  // 2.1.4): the next step from `params` with the Jacobian and factors of the last compute(), for the
+  // residual in ws.residual. Near a solution the Jacobian hardly changes over one step, so this
+  // converges almost as fast for the price of two triangular solves per level instead of a new
+  // linearisation, Gram matrix and factorisation. False (take a full step) when it would need a
+  // new active set (a joint pushed out of its bound, or one reaching a bound on the way).
+  bool chord(const double* params, double posture_gain) {
+    if (!solve(params, ws_.residual, posture_gain) || would_block(params)) return false;
+    return !(fraction_to_bounds(params) < 1.0);
+  }
+  // The last compute() cut its step short at a bound (a new joint joins the active set: the next
+  // step needs a new J).
+  bool cut() const { return cut_; }
+  int served() const { return served_; }
   int level_count() const { return levels_.count; }
   // The level (0-based among those with goals) that the first unmet one of `errors` is, or the
   // level count when all are met.
@@ -226,9 +336,56 @@ class HierarchicalStep {
   }
 
  private:
-  bool hierarchical(const double* params, const Eigen::VectorXd& residual, double mu, double posture_gain) {
+  // Level by level with one factor of the rows above: F (ws.gram_factor) is the Cholesky factor
+  // of G = M + ridge over the rows of the levels done so far, grown a level at a time by block
+  // Cholesky (Golub & Van Loan, sec. 4.2.6): with W = F^-1 A Jl^T, the next level's null-space
+  // matrix is K = Jl Jl^T - W^T W (the rows' projection, never formed as n x n), and F's new block
+  // row is [W^T, chol(Jl Jl^T - W^T W + ridge)]. Each level costs one triangular solve with its
+  // rows as right-hand sides, and the posture's projector reuses F whole.
+  // Factors the levels served for damping mu (M = gram() of the current J): per level S = Jt Jt^T
+  // (ws.coupling), W = F^-1 A Jl^T (F's upper triangle, free), K = chol(S + mu) (ws.row_factor),
+  // and F grown by the level when a lower level (or, with_posture, the posture) projects against it.
+  void factor(double mu, bool with_posture) {
+    const auto M = ws_.row_square.topLeftCorner(rows_, rows_);
+    auto F = ws_.gram_factor.topLeftCorner(rows_, rows_);
+    const double ridge = rows_ > 0 ? kProjectorRidge * std::max(M.diagonal().maxCoeff(), 1e-300) : 0.0;
+    factored_posture_ = with_posture && served_ == levels_.count;
+    for (int l = 0; l < served_; ++l) {
+      const int b = levels_.begin[l], m = levels_.end[l] - b;
+      // S = Jt Jt^T with Jt = Jl (I - A^T G^-1 A), the level's rows in the null space above.
+      const Cols S = cols_of(ws_.coupling.block(b, b, m, m));
+      for (int j = 0; j < m; ++j)
+        for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
+      const Cols W = cols_of(F.block(0, b, b, m));
+      if (b > 0) {
+        for (int j = 0; j < m; ++j) {
+          for (int i = 0; i < b; ++i) W(i, j) = M(i, b + j);
+          lower_solve(cols_of(F), b, W.col(j));
+        }
+        subtract_gram_of_columns(W, b, m, S);
+      }
+      const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
+      for (int j = 0; j < m; ++j)
+        for (int i = j; i < m; ++i) K(i, j) = S(i, j) + (i == j ? mu : 0.0);
+      cholesky_lower(K, m, kMinPivot2);
+      if (l + 1 < served_ || (factored_posture_ && l + 1 == levels_.count)) {
+        const Cols D = cols_of(F.block(b, b, m, m));
+        for (int j = 0; j < b; ++j)
+          for (int i = 0; i < m; ++i) F(b + i, j) = W(j, i);
+        for (int j = 0; j < m; ++j)
+          for (int i = j; i < m; ++i) D(i, j) = S(i, j) + (i == j ? ridge : 0.0);
+        cholesky_lower(D, m, kMinPivot2);
+      }
+    }
+  }
+
+  // The step (ws.step) for the residual rows `residual` at `params` with the factors factor() left:
+  // level by level y += Jt^T z, z = K^-1 (e_l - Jl y), Jt^T z = Jl^T z - A^T F^-T (W z); then the
+  // posture in the null space of every row (when factored for it). False when not finite.
+  bool solve(const double* params, const Eigen::VectorXd& residual, double posture_gain) {
     const auto J = ws_.jacobian.topLeftCorner(rows_, cols_);
-    const auto M = ws_.row_square.topLeftCorner(rows_, rows_);  // gram() of this J
+    auto F = ws_.gram_factor.topLeftCorner(rows_, rows_);
+    const bool posture = factored_posture_ && !problem_.posture.empty() && posture_gain > 0.0;
     auto y = ws_.dof_vec_a.head(cols_);
     y.setZero();
     for (int l = 0; l < served_; ++l) {
@@ -236,54 +393,57 @@ class HierarchicalStep {
       auto r = ws_.row_vec_a.segment(b, m);
       r = residual.segment(b, m);
       r.noalias() -= J.middleRows(b, m) * y;
-      // The level's rows in the null space of the rows A above it are Jt = Jl - C^T A with
-      // C = G^-1 A Jl^T; Jt is never formed: K = Jt Jt^T = Jl Jl^T - (Jl A^T) C, and the step
-      // Jt^T z = Jl^T z - A^T (C z).
-      auto K = ws_.row_factor.block(b, b, m, m);
-      K = M.block(b, b, m, m);
-      auto C = ws_.coupling.topLeftCorner(b, m);
-      if (b > 0) {
-        if (!factor_above(M, b)) return false;
-        C = M.block(0, b, b, m);
-        solve_above(b, C);
-        K.noalias() -= M.block(b, 0, m, b) * C;
-      }
-      K.diagonal().array() += mu;
-      linalg::cholesky_factor(K, m, kMinPivot2);
-      linalg::cholesky_solve(K, r, m);
+      const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
+      lower_solve(K, m, r.data());
+      lower_transpose_solve(K, m, r.data());
       y.noalias() += J.middleRows(b, m).transpose() * r;
       if (b > 0) {
+        const auto W = F.block(0, b, b, m);
         auto w = ws_.row_vec_b.head(b);
-        w.noalias() = C * r;
+        w.noalias() = W * r;
+        lower_transpose_solve(cols_of(F), b, w.data());
         y.noalias() -= J.topRows(b).transpose() * w;
       }
     }
-    if (!problem_.posture.empty() && posture_gain > 0.0) {
+    if (posture) {
       auto v = ws_.dof_vec_b.head(cols_);
       for (int c = 0; c < cols_; ++c) {
         const int d = ws_.active_dofs[c];
         v[c] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]) / ws_.dof_scale[c];
       }
       if (rows_ > 0) {
-        if (!factor_above(M, rows_)) return false;
         auto u = ws_.row_vec_b.head(rows_);
         u.noalias() = J * v;
-        solve_above(rows_, u);
+        lower_solve(cols_of(F), rows_, u.data());
+        lower_transpose_solve(cols_of(F), rows_, u.data());
         v.noalias() -= J.transpose() * u;
       }
       y += v;
     }
     ws_.step.setZero();
     for (int c = 0; c < cols_; ++c) ws_.step[ws_.active_dofs[c]] = ws_.dof_scale[c] * y[c];
-    if (!problem_.posture.empty() && posture_gain > 0.0)
+    if (posture)
       for (int d = 0; d < tree_.dof_count(); ++d)
         if (!is_active(d)) ws_.step[d] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]);
     return ws_.step.allFinite();
   }
 
+  // True when the step in ws.step pushes a joint out of a bound it rests on that J still moves
+  // (block_limits() would change J).
+  bool would_block(const double* params) const {
+    return any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
+      if (tree_.joint_type(j) != JointType::kBall)
+        return one_dof_blocked(tree_.limits(j), params[d], ws_.step[d]) && ws_.jacobian.col(c).head(rows_).any();
+      glm::dvec3 normals[2];
+      return ball_params_blocked(tree_.limits(j), params + d, ws_.step.data() + d, normals) > 0;
+    });
+  }
+
   // M = J J^T from the tree's structure: goals a and b share only the columns of their common
   // supports, which are the common prefix of their root-first support lists (Pinocchio's
-  // "supports"), so each 3x3 block sums over those few columns instead of all of them.
+  // "supports"), so each 3x3 block sums over those few columns instead of all of them. A joint's
+  // columns are adjacent (active_dofs keeps the DOF order), so a block sums 3 x 3 products per
+  // joint, in registers.
   template <class Gram>
   void gram(Gram& M) const {
     const double* J = ws_.jacobian.data();
@@ -297,44 +457,29 @@ class HierarchicalStep {
         const int eb = problem_.goals[ws_.goal_order[b]].goal.effector;
         const int* sb = tree_.support_list(eb);
         const int common_end = std::min(na, tree_.support_count(eb));
-        double block[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-        auto add_column = [&](int c) {
-          const double* col = J + c * ld;
-          for (int i = 0; i < 3; ++i)
-            for (int k = 0; k < 3; ++k) block[i][k] += col[3 * a + i] * col[3 * b + k];
+        double b00 = 0, b01 = 0, b02 = 0, b10 = 0, b11 = 0, b12 = 0, b20 = 0, b21 = 0, b22 = 0;
+        auto add_columns = [&](int c, int width) {
+          for (int k = 0; k < width; ++k) {
+            const double* col = J + (c + k) * ld;
+            const double a0 = col[3 * a], a1 = col[3 * a + 1], a2 = col[3 * a + 2];
+            const double c0 = col[3 * b], c1 = col[3 * b + 1], c2 = col[3 * b + 2];
+            b00 += a0 * c0, b01 += a0 * c1, b02 += a0 * c2;
+            b10 += a1 * c0, b11 += a1 * c1, b12 += a1 * c2;
+            b20 += a2 * c0, b21 += a2 * c1, b22 += a2 * c2;
+          }
         };
         for (int s = 0; s < common_end && sa[s] == sb[s]; ++s) {
           const int j = sa[s];
-          if (j == 0 && tree_.floating_root())
-            for (int d = 0; d < 3; ++d) add_column(ws_.dof_column[d]);
-          for (int d = 0; d < tree_.dof_count_of(j); ++d) add_column(ws_.dof_column[tree_.dof_offset(j) + d]);
+          if (j == 0 && tree_.floating_root()) add_columns(ws_.dof_column[0], 3);
+          add_columns(ws_.dof_column[tree_.dof_offset(j)], tree_.dof_count_of(j));
         }
+        const double block[3][3] = {{b00, b01, b02}, {b10, b11, b12}, {b20, b21, b22}};
         for (int i = 0; i < 3; ++i)
           for (int k = 0; k < 3; ++k) {
             M(3 * a + i, 3 * b + k) = block[i][k];
             M(3 * b + k, 3 * a + i) = block[i][k];
           }
       }
-    }
-  }
-
-  // Factors G = M[0:b, 0:b] + ridge (Cholesky, in place in ws.gram_factor's lower triangle).
-  template <class Gram>
-  bool factor_above(const Gram& M, int b) {
-    auto F = ws_.gram_factor.topLeftCorner(b, b);
-    F = M.topLeftCorner(b, b);
-    const double ridge = kProjectorRidge * std::max(F.diagonal().maxCoeff(), 1e-300);
-    F.diagonal().array() += ridge;
-    linalg::cholesky_factor(F, b, kMinPivot2);
-    return true;
-  }
-  // X <- G^-1 X, column by column, with the factor factor_above(M, b) left.
-  template <class Rhs>
-  void solve_above(int b, Rhs& X) {
-    const auto F = ws_.gram_factor.topLeftCorner(b, b);
-    for (Eigen::Index c = 0; c < X.cols(); ++c) {
-      auto column = X.col(c);
-      linalg::cholesky_solve(F, column, b);
     }
   }
 
@@ -345,6 +490,7 @@ class HierarchicalStep {
   // on their limits. Never below kMinFraction (the projection takes the rest).
   double fraction_to_bounds(const double* params) const {
     constexpr double kMinFraction = 0.05;
+    constexpr double kSlack = 1e-9;  // rad: joint_within_limits' default
     double fraction = 1.0;
     any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int) {
       const JointLimits& l = tree_.limits(j);
@@ -357,14 +503,33 @@ class HierarchicalStep {
       // A ball resting on its boundary slides along it (the active set took the outward part): the
       // projection takes back what the curved boundary adds, a second-order amount.
       double p[3] = {params[d] + s[0], params[d + 1] + s[1], params[d + 2] + s[2]};
-      if (!joint_within_limits(JointType::kBall, l, p, 1e-9) && !ball_params_on_boundary(l, params + d)) {
-        double lo = 0.0, hi = 1.0;
-        for (int k = 0; k < 20; ++k) {
-          const double mid = 0.5 * (lo + hi);
-          for (int i = 0; i < 3; ++i) p[i] = params[d + i] + mid * s[i];
-          (joint_within_limits(JointType::kBall, l, p, 1e-9) ? lo : hi) = mid;
+      if (!ball_surely_inside(l, p) && !joint_within_limits(JointType::kBall, l, p, kSlack) &&
+          !ball_params_on_boundary(l, params + d)) {
+        // The largest t in [0, 1] with params + t step within the limits: regula falsi with the
+        // Illinois modification (Dowell & Jarratt 1971) on h(t) = excess - kSlack / 2, which is
+        // <= 0 at 0 and > 0 at 1; it ends inside, within kSlack / 2 of the bound, in a handful of
+        // evaluations where bisection took 20.
+        auto h = [&](double t) {
+          for (int i = 0; i < 3; ++i) p[i] = params[d + i] + t * s[i];
+          return ball_excess(l, p) - 0.5 * kSlack;
+        };
+        double lo = 0.0, hi = 1.0, h_lo = h(0.0), h_hi = h(1.0);
+        int side = 0;
+        for (int k = 0; k < 20 && h_lo < 0.0 && hi - lo > 1e-7; ++k) {
+          const double t = std::clamp((lo * h_hi - hi * h_lo) / (h_hi - h_lo), lo, hi);
+          const double ht = h(t);
+          if (ht <= 0.0) {
+            lo = t, h_lo = ht;
+            if (side < 0) h_hi *= 0.5;
+            side = -1;
+            if (ht > -0.5 * kSlack) break;
+          } else {
+            hi = t, h_hi = ht;
+            if (side > 0) h_lo *= 0.5;
+            side = 1;
+          }
         }
-        fraction = std::min(fraction, lo);
+        fraction = std::min(fraction, h_lo <= 0.0 ? lo : 0.0);
       }
       return false;
     });
@@ -402,6 +567,8 @@ class HierarchicalStep {
   Levels levels_;
   int rows_ = 0, cols_ = 0;
   int served_ = 0;
+  bool factored_posture_ = false;  // factor() grew F over every row (the posture's projector)
+  bool cut_ = false;
 };
 
 // params + step, a ball's rotation vector kept at angle <= pi, each joint's turn capped at
@@ -484,13 +651,19 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   HierarchicalStep model(tree, problem, ws);
   double* residual = ws.residual.data();
 
-  tree_forward_kinematics(tree, params, ws);
+  // ws holds the FK of params (solve_tree() measured the start pose).
   TreeErrors current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), residual, nullptr);
   double current_posture = posture_cost(tree, problem, params);
   tree_dof_axes(tree, params, ws);
   model.linearize();
 
-  const double initial_mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
+  // The damping starts at dls_initial_damping, or at kResidualDamping |e|^2 when that is smaller
+  // (Yamashita & Fukushima 2001; Fan & Yuan 2005: mu = theta |e|^2 keeps Levenberg-Marquardt
+  // quadratically convergent near a solution): a warm start from the previous frame's pose is millimetres off,
+  // where the Gauss-Newton step is already accurate and a fixed damping would only slow it down
+  // (one more iteration per frame); from far away it changes nothing.
+  const double initial_mu =
+      std::clamp(std::min(o.dls_initial_damping, kResidualDamping * 2.0 * current.cost), o.dls_min_damping, o.dls_max_damping);
   double mu = initial_mu;
   double nu = 2.0;
   double posture_gain = 1.0;
@@ -530,6 +703,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     slow_steps = creep_steps = 0;
     return true;
   };
+  bool chord = false;  // the next step is a chord step (model.chord())
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
     if (ws.deadline.spent()) break;  // the time budget: kMaxIterations
@@ -538,7 +712,18 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     // one not met (a lower level's step would only drift it).
     const int served = met_cost == &strict ? std::min(model.first_unmet(current) + 1, model.level_count())
                                            : model.level_count();
-    bool trial_ok = model.compute(params, mu, posture_gain, served);
+    // After a step that removed most of the cost the next one is a chord step (the same J and
+    // factors); when that needs a new active set, or falls short, J is linearised afresh.
+    bool chorded = false;
+    if (chord) {
+      chord = false;
+      chorded = served == model.served() && model.chord(params, posture_gain);
+      if (!chorded) {
+        tree_dof_axes(tree, params, ws);  // ws holds the FK of params (the accepted trial's)
+        model.linearize();
+      }
+    }
+    bool trial_ok = chorded || model.compute(params, mu, posture_gain, served);
     TreeErrors trial;
     double trial_posture = 0.0;
     if (trial_ok) {
@@ -547,7 +732,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
-      if (!trial_ok && model.level_count() > 1 && model.correct(ws.params_trial.data(), ws.residual_trial, mu)) {
+      if (!trial_ok && !chorded && model.level_count() > 1 &&
+          model.correct(ws.params_trial.data(), ws.residual_trial)) {
         // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
         ws.dof_vec_b = ws.params_trial;
         make_trial(tree, o, ws.dof_vec_b.data(), ws.step.data(), ws.params_trial.data());
@@ -556,6 +742,13 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         trial_posture = posture_cost(tree, problem, ws.params_trial.data());
         trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
       }
+    }
+    if (!trial_ok && chorded) {
+      // The chord step fell short: a full step from a fresh J (the damping stays).
+      tree_forward_kinematics(tree, params, ws);
+      tree_dof_axes(tree, params, ws);
+      model.linearize();
+      continue;
     }
     if (trial_ok) {
       const double gain = progress(trial, trial_posture, current, current_posture);
@@ -587,8 +780,12 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (goals_left && creep_steps >= kStallIterations &&
           (tighten() || (any_pinned(tree, ws, model.columns(), params) && escape_stuck())))
         continue;
-      tree_dof_axes(tree, params, ws);  // FK of params is what ws holds (the trial's)
-      model.linearize();
+      if (gain >= kChordGain && !model.cut()) {
+        chord = true;  // the next iteration reuses J
+      } else {
+        tree_dof_axes(tree, params, ws);  // FK of params is what ws holds (the trial's)
+        model.linearize();
+      }
     } else {
       if (current.all_met()) {  // only the posture was left: it goes as far as the goals allow
         status.reason = TerminationReason::kConverged;

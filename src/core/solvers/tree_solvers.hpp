@@ -1,5 +1,6 @@
 // The tree solvers (internal): called by solve_tree() (tree_solve.cpp), which has validated every
-// input, made the start pose feasible and sized the workspace; each solver allocates nothing,
+// input, made the start pose feasible, sized the workspace and left the start pose's forward
+// kinematics in it (tree_forward_kinematics(tree, params, ws)); each solver allocates nothing,
 // throws nothing, keeps params within the limits and leaves them at the best pose it reached.
 #pragma once
 #include "core/kinematics.hpp"
@@ -26,6 +27,11 @@ struct TreeErrors {
 // given, also writes its weighted rows (3 per goal, in the order `goal_order` lists the goals).
 TreeErrors tree_measure(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
                         const TreeWorkspace& ws, const int* goal_order, double* residual, double* goal_error);
+
+// True when ball params `p` are inside limits `l` for sure, without trigonometry: neither the
+// swing nor |twist| exceeds the rotation angle |p| (cos(angle / 2) = cos(swing / 2) cos(twist / 2);
+// kinematics.cpp's ball_bounds makes the same test). False says nothing.
+bool ball_surely_inside(const JointLimits& l, const double* p);
 
 // Base-frame axis of every DOF (ws.dof_axes), after tree_forward_kinematics.
 void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws);
