@@ -326,6 +326,18 @@ bool ball_params_on_boundary(const JointLimits& limits, const double* p) {
   return ball_bounds(limits, p).any();
 }
 
+bool joint_params_at_limit(JointType type, const JointLimits& limits, const double* p) {
+  if (type == JointType::kBall) return ball_params_on_boundary(limits, p);
+  return one_dof_blocked(limits, p[0], -1.0) || one_dof_blocked(limits, p[0], 1.0);
+}
+
+int joints_at_limit(const Chain& chain, const double* params) {
+  int count = 0;
+  for (int i = 0; i < chain.joint_count(); ++i)
+    count += joint_params_at_limit(chain.joint_type(i), chain.limits(i), params + chain.dof_offset(i)) ? 1 : 0;
+  return count;
+}
+
 bool ball_on_boundary(const Chain& chain, int joint, const double* params) {
   return chain.joint_type(joint) == JointType::kBall &&
          ball_params_on_boundary(chain.limits(joint), params + chain.dof_offset(joint));

@@ -139,6 +139,9 @@ inline bool one_dof_blocked(const JointLimits& l, double value, double direction
 // ball_blocked and ball_on_boundary (below) for a ball joint's own params `p`.
 int ball_params_blocked(const JointLimits& limits, const double* p, const double* direction, glm::dvec3 normals[2]);
 bool ball_params_on_boundary(const JointLimits& limits, const double* p);
+// True when a joint rests on one of its limits: a 1-DOF joint at a bound (one_dof_blocked's test,
+// either way), a ball on its cone or a twist bound (ball_params_on_boundary). `p`: its own params.
+bool joint_params_at_limit(JointType type, const JointLimits& limits, const double* p);
 
 // Joint-space limits (hinge range, cone swing, twist range): project params onto the feasible set.
 void project_to_limits(const Chain& chain, double* params);
@@ -166,6 +169,8 @@ int ball_blocked(const Chain& chain, int joint, const double* params, const doub
                  glm::dvec3 normals[2]);
 // True when ball `joint` rests on its cone or a twist bound (ball_blocked's test, whatever the step).
 bool ball_on_boundary(const Chain& chain, int joint, const double* params);
+// How many of the chain's joints rest on a limit (joint_params_at_limit) at params.
+int joints_at_limit(const Chain& chain, const double* params);
 // Removes the component along unit `normal` (rotation-vector space) from the 3 DOF columns
 // o..o+2 of the first `rows` rows of `jacobian`, J <- J (I - n n^T): a minimum-norm or damped step
 // solved over the result has no component along n. For a hinge the same is zeroing its column.

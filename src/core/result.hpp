@@ -39,6 +39,11 @@ struct SolveResult {
   // Escapes from stuck poses inside the solver runs (at most 5 per run, restarts' included;
   // docs/solvers.md, "When a solve is stuck"). Deterministic, like everything else here.
   int escapes = 0;
+  // Joints resting on a limit at the returned pose (a hinge or slide at a bound, a ball on its cone
+  // or a twist bound; 0 for kInvalidInput). With kStalled (or kMaxIterations) it says what holds
+  // the pose: the limits, when the goals lie within the bones' reach - out of reach because of the
+  // limits, where more iterations give the same pose (docs/solvers.md, "When a solve is stuck").
+  int joints_at_limit = 0;
   Message message;          // why, for kInvalidInput (names the bad field); empty otherwise
 
   // Derived from the reason, so the two can never disagree (Ceres' IsSolutionUsable()): false only

@@ -162,6 +162,7 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("is_last_usable", &IKChain::is_last_usable);
   b.method("is_last_reached", &IKChain::is_last_reached);
   b.method("get_last_iterations", &IKChain::get_last_iterations);
+  b.method("get_last_joints_at_limit", &IKChain::get_last_joints_at_limit);
   b.method("get_last_initial_error", &IKChain::get_last_initial_error);
   b.method("get_last_final_error", &IKChain::get_last_final_error);
   b.method("get_last_position_error", &IKChain::get_last_position_error);
@@ -457,6 +458,7 @@ gdx::Dictionary IKChain::get_last_result() const {
   put("budget_exhausted", gdx::Variant(last_.budget_exhausted));
   put("restarts", gdx::Variant(int64_t(last_.restarts)));
   put("escapes", gdx::Variant(int64_t(last_.escapes)));
+  put("joints_at_limit", gdx::Variant(get_last_joints_at_limit()));
   put("solver", gdx::Variant(usable ? solver_info(last_solver_).display_name : ""));
   put("message", gdx::Variant(last_.message.c_str()));
   return d;

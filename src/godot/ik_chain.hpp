@@ -114,6 +114,7 @@ class IKChain {
   bool is_last_usable() const;
   bool is_last_reached() const;
   int64_t get_last_iterations() const { return int64_t(last_.iterations); }
+  int64_t get_last_joints_at_limit() const { return int64_t(last_.joints_at_limit); }
   double get_last_initial_error() const { return last_.initial_error; }
   double get_last_final_error() const;
   double get_last_position_error() const;

@@ -156,7 +156,9 @@ TEST(Bfgs, LimitsRespectedAndFeasibleTargetsReached) {
           ++ok;
         } else if (ball == 0) {
           EXPECT_EQ(r.reason, TerminationReason::kStalled);
-          EXPECT_LE(projected_gradient_rel(c, goals[0], p), 1e-4) << "chain " << chain_i << " trial " << t;
+          // At the minimum, or near it when a creep along a bound with no escape left stopped
+          // (it would creep on in vain: issue 16, item 14).
+          EXPECT_LE(projected_gradient_rel(c, goals[0], p), 1e-2) << "chain " << chain_i << " trial " << t;
         }
       }
     }

@@ -487,7 +487,10 @@ SolverStatus Bfgs::run() {
       if (escape()) continue;
       break;
     }
-    if (stall_.creeping() && escapes_.creep_is_stuck(x_.data()) && escape()) continue;  // else creeping goes on
+    if (stall_.creeping() && escapes_.creep_is_stuck(x_.data())) {  // a creep the limits hold
+      if (escape()) continue;
+      break;  // no escape left: it would creep on in vain (stalled)
+    }
   }
   status.iterations = it;
   status.escapes = escapes_.used();

@@ -144,7 +144,11 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
         status.reason = TerminationReason::kStalled;
         break;
       }
-      if (stall.creeping() && escapes.creep_is_stuck(params) && escape()) continue;  // else creeping goes on
+      if (stall.creeping() && escapes.creep_is_stuck(params)) {  // a creep the limits hold
+        if (escape()) continue;
+        status.reason = TerminationReason::kStalled;  // no escape left: it would creep on in vain
+        break;
+      }
       model.linearize(params);
       const double rho = predicted > 0.0 ? gain / predicted : 0.0;
       const double r = 2.0 * rho - 1.0;

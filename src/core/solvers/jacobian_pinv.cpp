@@ -198,7 +198,9 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     }
     const bool stalled = stall.stalled_after(model.cost(), o.stall_tolerance);
     if ((stalled || stall.creeping()) && escape()) continue;
-    if (stalled) {  // creeping alone, with no escape left, goes on: it is still progress
+    // No escape left: stalled stops, and so does a creep the limits hold (it would creep on in
+    // vain); any other creep goes on, it is still progress.
+    if (stalled || (stall.creeping() && escapes.creep_is_stuck(params))) {
       status.reason = TerminationReason::kStalled;
       break;
     }

@@ -105,9 +105,9 @@ func test_last_result_before_any_solve() -> void:
 	var r: Dictionary = ik.get_last_result()
 	for key in ["reason", "usable", "iterations", "initial_error", "final_error", "solver_final_error",
 			"position_error", "orientation_error", "microseconds", "reached", "budget_exhausted", "restarts",
-			"escapes", "solver", "message"]:
+			"escapes", "joints_at_limit", "solver", "message"]:
 		check(r.has(key), "get_last_result() has key " + key)
-	for key in ["restarts", "escapes"]:
+	for key in ["restarts", "escapes", "joints_at_limit"]:
 		check_eq(r.get(key), 0, key + " before any solve")
 	check_eq(r.get("reason"), "not_run", "reason before any solve")
 	check_eq(r.get("usable"), false, "usable before any solve")

@@ -512,3 +512,30 @@ func test_goal_on_a_bone_it_cannot_move_is_refused() -> void:
 		var w := " | ".join(ik._get_configuration_warnings())
 		check(w.contains("cannot move"), "goal kind %d on %s: a configuration warning, got: %s" % [c[1], c[0], w])
 		check_eq(ik.is_last_usable(), false, "goal kind %d on %s: the chain is not solved" % [c[1], c[0]])
+
+
+# Issue 16, item 14: a foot target within the leg's length (0.85 of 0.87 m) but 42° off the hip's
+# rest direction, beyond what a 15° hip cone and a nearly straight knee allow, is
+# out of reach because of the limits: the solve stops as stalled, not at max_iterations, and the
+# result says the limits hold the pose (joints_at_limit: the hip on its cone).
+func test_limits_holding_the_pose_are_reported() -> void:
+	var rig := leg_rig(IKChain.SOLVER_DLS, Vector3(0.1 + 0.85 * sin(deg_to_rad(42.0)), 1.0 - 0.85 * cos(deg_to_rad(42.0)), 0.0))
+	var ik: IKChain = rig["ik"]
+	ik.max_iterations = 64
+	var hip := IKChainJoint.new()
+	hip.bone_name = "thigh"
+	hip.cone_limit_enabled = true
+	hip.cone_angle = deg_to_rad(15.0)
+	ik.joints = [hip, knee_joint()]
+	case_root.add_child(rig["container"])
+	await frames(2)
+	var r: Dictionary = ik.solve_now()
+	check_eq(r.get("reason"), "stalled", "reason of a target the hip cone keeps out of reach")
+	check(r.get("iterations") < 64, "stopped before max_iterations (%d)" % r.get("iterations"))
+	check(r.get("joints_at_limit") >= 1, "the hip rests on its cone (%d)" % r.get("joints_at_limit"))
+	check_eq(ik.get_last_joints_at_limit(), r.get("joints_at_limit"), "typed getter agrees")
+	check(r.get("position_error") > 0.05, "held short of the target (%.3f)" % r.get("position_error"))
+	(rig["target"] as Node3D).position = Vector3(0.1, 0.16, 0.0)  # 0.84 m straight down
+	r = ik.solve_now()
+	check_eq(r.get("reason"), "converged", "a target within the limits")
+	check_eq(r.get("joints_at_limit"), 0, "no joint on a limit")
