@@ -54,6 +54,8 @@ Message SolverOptions::validate() const {
   if (!(std::isfinite(time_cap_usec) && time_cap_usec >= 0.0))
     return Message::format("time_cap_usec must be >= 0 (0 = no cap), got %g", time_cap_usec);
   auto coordinate = [](double v) { return std::abs(v) <= kMaxMagnitude; };  // false for NaN
+  if (!(coordinate(soft_reach) && soft_reach >= 0.0))
+    return Message::format("soft_reach must be >= 0 m (0 = off) and at most %g, got %g", kMaxMagnitude, soft_reach);
   if (use_pole && !(coordinate(pole_in_base.x) && coordinate(pole_in_base.y) && coordinate(pole_in_base.z)))
     return Message::format("pole_in_base (%g, %g, %g) must be finite, each component within +-%g m when use_pole is set",
                            pole_in_base.x, pole_in_base.y, pole_in_base.z, kMaxMagnitude);

@@ -73,6 +73,18 @@ struct SolverOptions {
   bool use_pole = false;
   glm::dvec3 pole_in_base{0.0};  // m
 
+  // --- soft reach (every solver; off by default)
+  // A limb straightening toward a target near its full reach R snaps its last degrees of knee or
+  // elbow in a frame or two: the bend angle goes as sqrt(R - d), 12 deg over the last 5 mm of a
+  // 0.87 m leg. Soft IK (as Final IK and Unreal offer; Harris's exponential soft zone): with
+  // soft_reach = s > 0, a position goal whose target lies farther than R - s from the root joint's
+  // origin (R: the bones before its effector) is pulled toward the root, to distance
+  // R - s + s (1 - exp(-(d - R + s) / s)): continuous, smooth (C1 at R - s), always short of R, so
+  // the limb straightens only asymptotically and a target beyond R is followed without a snap.
+  // The pulled target is the goal: errors and the reason refer to it, and SolveResult::soft_pull
+  // says how far it was pulled. s is capped at R.
+  double soft_reach = 0.0;  // m, >= 0 (0 = off); e.g. 5 % of the limb's length
+
   // --- Jacobian pseudo-inverse
   // The step is halved while the change the trial pose achieves misses the change the step
   // promised (J J+ de) by more than this fraction of it (dimensionless, in (0, 1]); see

@@ -44,6 +44,10 @@ struct SolveResult {
   // the pose: the limits, when the goals lie within the bones' reach - out of reach because of the
   // limits, where more iterations give the same pose (docs/solvers.md, "When a solve is stuck").
   int joints_at_limit = 0;
+  // How far SolverOptions::soft_reach pulled a position goal's target toward the root (m; the
+  // largest pull over the goals; 0 when soft_reach is off or no target came near full reach).
+  // The errors above refer to the pulled targets.
+  double soft_pull = 0.0;
   Message message;          // why, for kInvalidInput (names the bad field); empty otherwise
 
   // Derived from the reason, so the two can never disagree (Ceres' IsSolutionUsable()): false only

@@ -44,6 +44,28 @@ using stuck::provably_out_of_reach;
 // non-stationary). Every other non-converged stop - a local minimum of reachable goals included -
 // is "stalled" (or the solver's kMaxIterations). Needs ws to hold the forward kinematics of
 // params, and `err` their measured errors (solve() has both at hand for the final pose).
+// SolverOptions::soft_reach: `goals` copied into `out` (same order), each position goal's target
+// that lies within soft_reach of its effector's full reach pulled toward the root joint's origin
+// (options.hpp gives the curve). Returns the largest pull (m).
+double soften_goals(const Chain& chain, Span<const Goal> goals, double soft_reach, Goal* out) {
+  double largest = 0.0;
+  const glm::dvec3 root = chain.root_in_base();
+  for (int i = 0; i < goals.size; ++i) {
+    out[i] = goals[i];
+    if (goals[i].kind != GoalKind::kPosition) continue;
+    const double reach = stuck::reach_of(chain, resolve_effector(chain, goals[i].effector));
+    const double soft = std::min(soft_reach, reach);
+    const double start = reach - soft;  // where the soft zone begins
+    const glm::dvec3 offset = goals[i].target_position - root;
+    const double d = glm::length(offset);
+    if (!(soft > 0.0) || !(d > start)) continue;
+    const double pulled = start + soft * (1.0 - std::exp(-(d - start) / soft));
+    out[i].target_position = root + offset * (pulled / d);
+    largest = std::max(largest, d - pulled);
+  }
+  return largest;
+}
+
 bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                    Workspace& ws, const double* params, const GoalErrors& err) {
   if (!provably_out_of_reach(chain, goals, options.position_tolerance)) return false;
@@ -402,6 +424,10 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (!result.message.empty()) {
     result.reason = TerminationReason::kInvalidInput;
     return finish();
+  }
+  if (options.soft_reach > 0.0) {  // the pulled targets are the goals from here on
+    result.soft_pull = soften_goals(chain, goals, options.soft_reach, ws.softened_goals.data());
+    goals = Span<const Goal>(ws.softened_goals.data(), goals.size);
   }
   ws.params_backup = params;
   // The budget's and the cap's start: the reading `start` above (a second read is not free next to a

@@ -24,6 +24,7 @@ void Workspace::reset(const Chain& chain, int goals) {
   for (Eigen::VectorXd* v : {&params_backup, &params_trial, &params_best, &params_kept, &params_restart_best, &step, &gradient,
                              &gradient_trial, &dof_vec_a, &dof_vec_b})
     v->setZero(dofs);
+  softened_goals.assign(max_goals, Goal());
   points_a.assign(joints + 1, glm::dvec3(0.0));
   points_b.assign(joints + 1, glm::dvec3(0.0));
 }

@@ -8,6 +8,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "core/deadline.hpp"
+#include "core/goal.hpp"
 
 namespace ikchain {
 
@@ -47,6 +48,7 @@ struct Workspace {
   Eigen::MatrixXd goal_square;     // (3*max_goals)^2, e.g. J J^T
   Eigen::VectorXd goal_vec;        // 3*max_goals
   Eigen::MatrixXd dof_square;      // dofs x dofs, e.g. BFGS inverse Hessian
+  std::vector<Goal> softened_goals;  // max_goals: the goals with SolverOptions::soft_reach applied
   Eigen::VectorXd params_backup;   // the caller's params, restored on failure
   Eigen::VectorXd params_trial;
   Eigen::VectorXd params_best;   // the best pose a solve has seen (solvers/stuck.hpp)

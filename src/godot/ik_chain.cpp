@@ -149,6 +149,8 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("get_tolerance", &IKChain::get_tolerance);
   b.method("set_orientation_tolerance", &IKChain::set_orientation_tolerance, {"radians"});
   b.method("get_orientation_tolerance", &IKChain::get_orientation_tolerance);
+  b.method("set_soft_reach", &IKChain::set_soft_reach, {"distance"});
+  b.method("get_soft_reach", &IKChain::get_soft_reach);
   b.method("set_time_budget_usec", &IKChain::set_time_budget_usec, {"usec"});
   b.method("get_time_budget_usec", &IKChain::get_time_budget_usec);
   b.method("set_max_restarts", &IKChain::set_max_restarts, {"restarts"});
@@ -233,6 +235,8 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.property({"orientation_tolerance", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
               "0.000001,1,0.000001,exp,suffix:rad"},
              "set_orientation_tolerance", "get_orientation_tolerance");
+  b.property({"soft_reach", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0,1,0.001,or_greater,suffix:m"},
+             "set_soft_reach", "get_soft_reach");
   b.property({"time_budget_usec", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
               "0,100000,1,or_greater,suffix:us"},
              "set_time_budget_usec", "get_time_budget_usec");
@@ -396,6 +400,13 @@ void IKChain::set_orientation_tolerance(double radians) {
   options_.orientation_tolerance = orientation_tolerance_;
 }
 
+void IKChain::set_soft_reach(double units) {
+  const double used = std::isnan(units) ? soft_reach_ : std::clamp(units, 0.0, 1e6);
+  if (used != units) report_clamped(kClass, "soft_reach", "[0, 1e+06] (skeleton units; 0 = off)", units, used);
+  soft_reach_ = used;
+  options_.soft_reach = soft_reach_;
+}
+
 void IKChain::set_time_budget_usec(double usec) {
   const double used = std::isnan(usec) ? time_budget_usec_ : std::clamp(usec, 0.0, 1e9);
   if (used != usec) report_clamped(kClass, "time_budget_usec", "[0, 1e+09] us (0 = none)", usec, used);
@@ -459,6 +470,7 @@ gdx::Dictionary IKChain::get_last_result() const {
   put("restarts", gdx::Variant(int64_t(last_.restarts)));
   put("escapes", gdx::Variant(int64_t(last_.escapes)));
   put("joints_at_limit", gdx::Variant(get_last_joints_at_limit()));
+  put("soft_pull", gdx::Variant(last_.soft_pull));
   put("solver", gdx::Variant(usable ? solver_info(last_solver_).display_name : ""));
   put("message", gdx::Variant(last_.message.c_str()));
   return d;

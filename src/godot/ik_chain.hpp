@@ -96,6 +96,8 @@ class IKChain {
   double get_tolerance() const { return tolerance_; }
   void set_orientation_tolerance(double radians);
   double get_orientation_tolerance() const { return orientation_tolerance_; }
+  void set_soft_reach(double units);
+  double get_soft_reach() const { return soft_reach_; }
   void set_time_budget_usec(double usec);
   double get_time_budget_usec() const { return time_budget_usec_; }
   void set_max_restarts(int64_t n);
@@ -200,6 +202,7 @@ class IKChain {
   double tolerance_ = kDefaultTolerance;
   double orientation_tolerance_ = kDefaultOrientationTolerance;
   double time_budget_usec_ = 0.0;
+  double soft_reach_ = 0.0;  // skeleton units; 0 = off
   int64_t max_restarts_ = 0;
   int64_t restart_seed_ = 1;
   bool deterministic_ = false;

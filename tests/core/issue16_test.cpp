@@ -461,5 +461,81 @@ TEST(Issue16, OutOfReachBecauseOfTheLimitsStopsAsStalledAndMovesSmoothly) {
   EXPECT_EQ(r.joints_at_limit, 0);
 }
 
+
+// ------------------------------------------------------------------------------------ item 15
+// A leg: a ball hip at the base origin, a 0.45 m thigh down (-Y), a knee hinge about +X in
+// [0, 2.6] rad, a 0.42 m shin; R = 0.87 m.
+Chain straight_leg() {
+  ChainBuilder b;
+  JointDesc hip;
+  b.add_joint(hip);
+  JointDesc knee;
+  knee.type = JointType::kHinge;
+  knee.hinge_axis = glm::dvec3(1, 0, 0);
+  knee.offset_translation = glm::dvec3(0, -0.45, 0);
+  knee.limits.has_hinge_limit = true;
+  knee.limits.hinge_min = 0.0;
+  knee.limits.hinge_max = 2.6;
+  b.add_joint(knee);
+  b.set_tip_offset(glm::dvec3(0, -0.42, 0));
+  Chain c;
+  EXPECT_TRUE(b.build(c).empty());
+  return c;
+}
+
+// Item 15: soft reach. A foot target moving 2 mm a frame down through the leg's full reach: the
+// knee snaps its last degrees straight within a few frames without it (the bend goes as
+// sqrt(R - d)); with soft_reach = 5 % of the leg the knee straightens smoothly (no frame turns it
+// by more than 2 deg, never a re-bend), never quite straight, the foot on the pulled target, whose
+// pull SolveResult::soft_pull reports exactly.
+TEST(Issue16, SoftReachStraightensTheKneeWithoutASnap) {
+  const Chain leg = straight_leg();
+  const double reach = 0.87, soft = 0.05 * reach;
+  Workspace ws(leg, 1);
+  for (SolverKind kind : {SolverKind::kTwoBone, SolverKind::kDLS, SolverKind::kBFGS, SolverKind::kFABRIK}) {
+    for (double soft_reach : {0.0, soft}) {
+      SCOPED_TRACE(std::string(to_string(kind)) + (soft_reach > 0.0 ? " soft" : " hard"));
+      SolverOptions o;
+      o.soft_reach = soft_reach;
+      o.max_iterations = 200;
+      Eigen::VectorXd params = Eigen::VectorXd::Zero(leg.dof_count());
+      params[3] = 1.0;  // start bent
+      double largest_turn = 0.0, previous_knee = 0.0;
+      bool rebent = false;
+      for (int f = 0; f <= 125; ++f) {
+        const glm::dvec3 target(0.0, -0.70 - 0.002 * f, 0.05);
+        const Goal g = Goal::position(target);
+        const SolveResult r = solve(kind, leg, Span<const Goal>(&g, 1), o, ws, params);
+        ASSERT_TRUE(r.usable());
+        const double knee = params[3];
+        if (f > 0) {
+          largest_turn = std::max(largest_turn, std::abs(knee - previous_knee));
+          rebent = rebent || knee > previous_knee + 1e-6;
+        }
+        previous_knee = knee;
+        // The pulled target, by the formula of options.hpp.
+        const double d = glm::length(target);
+        const double start = reach - soft_reach;
+        const double pulled = soft_reach > 0.0 && d > start ? start + soft_reach * (1.0 - std::exp(-(d - start) / soft_reach)) : d;
+        EXPECT_NEAR(r.soft_pull, d - pulled, 1e-12) << "frame " << f;
+        if (soft_reach > 0.0) {
+          EXPECT_EQ(r.reason, TerminationReason::kConverged) << "frame " << f << ": " << to_string(r.reason);
+          EXPECT_NEAR(glm::length(test::tip_of(leg, params) - target * (pulled / d)), 0.0, 2e-5) << "frame " << f;
+          EXPECT_GT(knee, 1e-3) << "frame " << f;  // never quite straight
+        }
+      }
+      if (soft_reach > 0.0) {
+        EXPECT_LE(largest_turn, 2.0 * so3::kPi / 180.0);
+        EXPECT_FALSE(rebent);
+      } else {
+        EXPECT_GE(largest_turn, 4.0 * so3::kPi / 180.0);  // the snap soft reach removes
+      }
+    }
+  }
+  SolverOptions bad;
+  bad.soft_reach = -1.0;
+  EXPECT_NE(std::string(bad.validate().c_str()).find("soft_reach"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace ikchain

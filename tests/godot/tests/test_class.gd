@@ -105,7 +105,7 @@ func test_last_result_before_any_solve() -> void:
 	var r: Dictionary = ik.get_last_result()
 	for key in ["reason", "usable", "iterations", "initial_error", "final_error", "solver_final_error",
 			"position_error", "orientation_error", "microseconds", "reached", "budget_exhausted", "restarts",
-			"escapes", "joints_at_limit", "solver", "message"]:
+			"escapes", "joints_at_limit", "soft_pull", "solver", "message"]:
 		check(r.has(key), "get_last_result() has key " + key)
 	for key in ["restarts", "escapes", "joints_at_limit"]:
 		check_eq(r.get(key), 0, key + " before any solve")

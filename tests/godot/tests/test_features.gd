@@ -539,3 +539,39 @@ func test_limits_holding_the_pose_are_reported() -> void:
 	r = ik.solve_now()
 	check_eq(r.get("reason"), "converged", "a target within the limits")
 	check_eq(r.get("joints_at_limit"), 0, "no joint on a limit")
+
+
+# Issue 16, item 15: soft reach. The foot target moves 2 mm a frame down through the leg's full
+# length (0.87 m): without soft_reach the knee snaps its last degrees straight within a few frames;
+# with soft_reach = 5 % of the leg it straightens gradually (at most 2° a frame, never re-bending),
+# never quite locks, and get_last_result() reports the pull.
+func test_soft_reach_straightens_the_knee_without_a_snap() -> void:
+	for soft in [0.0, 0.0435]:
+		var rig := leg_rig(IKChain.SOLVER_DLS, Vector3(0.1, 0.3, 0.05))
+		var skel: Skeleton3D = rig["skeleton"]
+		var ik: IKChain = rig["ik"]
+		ik.soft_reach = soft
+		var target: Marker3D = rig["target"]
+		var knees := []
+		skel.skeleton_updated.connect(func(): knees.append(knee_angle(skel)))
+		Rig.add_to(case_root, rig)
+		var pulls := []
+		for f in 100:
+			target.position = Vector3(0.1, 1.0 - 0.70 - 0.002 * f, 0.05)
+			await process_frame
+			pulls.append(ik.get_last_result().get("soft_pull"))
+		var label := "soft_reach %.4f" % soft
+		var largest_turn := 0.0
+		var rebent := false
+		for i in range(10, knees.size()):
+			largest_turn = maxf(largest_turn, absf(knees[i] - knees[i - 1]))
+			rebent = rebent or absf(knees[i]) > absf(knees[i - 1]) + 1e-4
+		if soft > 0.0:
+			check_le(largest_turn, deg_to_rad(2.0), label + ": largest knee turn in a frame (rad)")
+			check(not rebent, label + ": the knee never bends back while the target moves away")
+			check(absf(knees[knees.size() - 1]) > 1e-3, label + ": the knee never quite locks straight")
+			check(pulls[pulls.size() - 1] > 0.01, label + ": soft_pull reported (%.4f)" % pulls[pulls.size() - 1])
+		else:
+			check(largest_turn >= deg_to_rad(4.0), label + ": the snap soft reach removes (%.1f°)" % rad_to_deg(largest_turn))
+			check_eq(pulls[pulls.size() - 1], 0.0, label + ": no pull")
+		(rig["container"] as Node).free()
