@@ -35,6 +35,11 @@ struct SolverInfo {
 Span<const SolverInfo> solver_table();
 const SolverInfo& solver_info(SolverKind kind);  // kind must be one of the enum's values
 
+// One goal's own fields (weight, kind, target, axes; `index` names it in the message): the per-goal
+// check solve() and solve_tree() share. The effector's range is the caller's (chains and trees
+// count effectors differently).
+Message validate_goal(const Goal& goal, int index);
+
 // The checks solve() makes before running a solver; empty message when all is well.
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         const Workspace& workspace, const Eigen::Ref<const Eigen::VectorXd>& params);
