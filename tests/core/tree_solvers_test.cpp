@@ -3,6 +3,7 @@
 // limits, no allocation, priorities as each solver treats them, kinds refused by name, Auto.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <random>
@@ -18,8 +19,6 @@ namespace {
 using test::Humanoid;
 using test::pose_goals_at;
 
-constexpr int DLS_POS = 0, DLS_6D = 0, BFGS_POS = 0, BFGS_6D = 0, CCD_POS = 0, CCD_6D = 0, FABRIK_POS = 0, FABRIK_6D = 0;
-constexpr double FEET_WEIGHTED = 1.0;
 
 // The tree solvers, from the solver table.
 std::vector<SolverKind> tree_solvers() {
@@ -29,14 +28,23 @@ std::vector<SolverKind> tree_solvers() {
   return out;
 }
 
-// Per solver and goal set: the share of 100 random reachable five-effector poses (hands, feet,
-// head; joints turned by up to 1.2 rad, the root moved by up to 0.2 m) each must reach from rest
-// within tolerance in max_iterations = 500. Measured rates minus a margin (the rates printed by
-// the test are the measured ones); DLS is the reference.
+// Per solver and goal set: how many of 100 random reachable five-effector poses (hands, feet,
+// head; joints turned by up to 1.2 rad, the root moved by up to 0.2 m; the fixture's limits on)
+// each must reach from rest within tolerance (1e-5 m, 1e-4 rad) in max_iterations = 500, with a
+// fixed and a floating root, and the median position error it must stay under. Thresholds: the
+// lower of the two roots' measured values, minus a margin (the test prints the measured ones):
+//   dls      position 99 / 100, 6-D 98 / 100          (medians ~1e-7 m)
+//   bfgs     position 99 / 100, 6-D 65 / 98          (medians ~1e-6 m)
+//   ccd      position 29 / 77,  6-D 0 / 0  in 500 sweeps (medians 0.13 mm / 0.01 mm; 6-D 15 / 8 mm):
+//            linear convergence, slowest where the spine is shared
+//   fabrik   position 2 / 4,    6-D 0 / 0             (medians 26 / 41 mm; 6-D 160 / 120 mm): the
+//            limits stop it at points that are not solutions - with the fixture's limits off it
+//            reaches 30 of 30 position sets (median 9.6e-6 m); a known limit (docs/full-body.md).
 struct RateCase {
   SolverKind kind;
   bool orientation;  // 6-D goals (position + orientation) or positions only
   int min_converged;
+  double max_median_position_error;  // m, over the 100 poses
 };
 
 void expect_result_is_the_pose(const Tree& tree, const TreeProblem& p, const TreeSolveResult& r,
@@ -55,13 +63,19 @@ void expect_result_is_the_pose(const Tree& tree, const TreeProblem& p, const Tre
   EXPECT_TRUE(within_tree_limits(tree, q.data(), 1e-9));
 }
 
-int converged_of_100(SolverKind kind, bool floating, bool orientation) {
+struct Rate {
+  int converged = 0;
+  double median_position_error = 0.0;
+};
+
+Rate rate_of_100(SolverKind kind, bool floating, bool orientation) {
   const Tree t = test::make_humanoid(floating);
   std::mt19937 rng(21);
   TreeWorkspace ws(t, 12);
   SolverOptions o;
   o.max_iterations = 500;
   int converged = 0, iterations = 0;
+  std::vector<double> errors;
   for (int trial = 0; trial < 100; ++trial) {
     const Eigen::VectorXd target = test::random_tree_params(t, rng, 1.2, 0.2);
     const std::vector<TreeGoal> goals = pose_goals_at(
@@ -79,27 +93,37 @@ int converged_of_100(SolverKind kind, bool floating, bool orientation) {
       EXPECT_LE(r.summary.final_orientation_error, o.orientation_tolerance);
     }
     iterations += r.summary.iterations;
+    errors.push_back(r.summary.final_position_error);
   }
-  std::printf("  %-6s %s root, %s goals: %d/100 converged, %.1f iterations on average\n", to_string(kind),
-              floating ? "floating" : "fixed", orientation ? "6-D" : "position", converged, iterations / 100.0);
-  return converged;
+  std::sort(errors.begin(), errors.end());
+  const double median = 0.5 * (errors[49] + errors[50]);
+  std::printf("  %-6s %s root, %s goals: %d/100 converged, median position error %.3g m, %.1f iterations on "
+              "average\n", to_string(kind), floating ? "floating" : "fixed", orientation ? "6-D" : "position",
+              converged, median, iterations / 100.0);
+  return {converged, median};
 }
 
 class TreeSolverRates : public ::testing::TestWithParam<RateCase> {};
 
 TEST_P(TreeSolverRates, ReachRandomFiveEffectorPosesFromRest) {
   const RateCase c = GetParam();
-  for (bool floating : {false, true})
-    EXPECT_GE(converged_of_100(c.kind, floating, c.orientation), c.min_converged)
+  for (bool floating : {false, true}) {
+    const Rate r = rate_of_100(c.kind, floating, c.orientation);
+    EXPECT_GE(r.converged, c.min_converged) << to_string(c.kind) << (floating ? " floating" : " fixed") << " root";
+    EXPECT_LE(r.median_position_error, c.max_median_position_error)
         << to_string(c.kind) << (floating ? " floating" : " fixed") << " root";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(TreeSolvers, TreeSolverRates,
-                         ::testing::Values(RateCase{SolverKind::kDLS, false, DLS_POS}, RateCase{SolverKind::kDLS, true, DLS_6D},
-                                           RateCase{SolverKind::kBFGS, false, BFGS_POS}, RateCase{SolverKind::kBFGS, true, BFGS_6D},
-                                           RateCase{SolverKind::kCCD, false, CCD_POS}, RateCase{SolverKind::kCCD, true, CCD_6D},
-                                           RateCase{SolverKind::kFABRIK, false, FABRIK_POS},
-                                           RateCase{SolverKind::kFABRIK, true, FABRIK_6D}),
+                         ::testing::Values(RateCase{SolverKind::kDLS, false, 95, 1e-5},
+                                           RateCase{SolverKind::kDLS, true, 95, 1e-5},
+                                           RateCase{SolverKind::kBFGS, false, 95, 1e-5},
+                                           RateCase{SolverKind::kBFGS, true, 60, 1e-5},
+                                           RateCase{SolverKind::kCCD, false, 25, 5e-4},
+                                           RateCase{SolverKind::kCCD, true, 0, 0.03},
+                                           RateCase{SolverKind::kFABRIK, false, 1, 0.08},
+                                           RateCase{SolverKind::kFABRIK, true, 0, 0.3}),
                          [](const ::testing::TestParamInfo<RateCase>& i) {
                            return std::string(to_string(i.param.kind)) + (i.param.orientation ? "_pose" : "_position");
                          });
@@ -160,8 +184,9 @@ TEST(TreeSolvers, SolveAllocatesNothing) {
 }
 
 // Feet at level 1, hands chasing targets out of reach at level 2: DLS holds the feet to 1e-4 m
-// (strict); the weighted solvers hold them to within a few millimetres (a level-2 goal weighs
-// 1e-3 of a level-1 one: the feet give way by about that share of the hands' pull).
+// (strict); the weighted solvers hold them within 1 cm (a level-2 goal weighs 1e-3 of a level-1 one:
+// the feet give way by about that share of the hands' pull; measured: bfgs 1.0 mm, ccd 1.5 mm,
+// fabrik 6.1 mm).
 TEST(TreeSolvers, WeightedSolversFavourLevelOne) {
   const Tree t = test::make_humanoid(true);
   TreeWorkspace ws(t, 12);
@@ -181,7 +206,7 @@ TEST(TreeSolvers, WeightedSolversFavourLevelOne) {
     std::printf("  %-6s feet %.3g m, hands %.3g / %.3g m, %s after %d iterations\n", to_string(kind), feet,
                 r.goal_error[2], r.goal_error[3], to_string(r.summary.reason), r.summary.iterations);
     EXPECT_FALSE(r.level_met[1]) << to_string(kind);
-    EXPECT_LE(feet, kind == SolverKind::kDLS ? 1e-4 : FEET_WEIGHTED) << to_string(kind);
+    EXPECT_LE(feet, kind == SolverKind::kDLS ? 1e-4 : 1e-2) << to_string(kind);
   }
 }
 
