@@ -30,7 +30,8 @@ struct SolverInfo {
   bool intermediate_orientation_goals;  // ... on effectors other than the tip too (FABRIK: tip only)
   bool several_goals;        // takes more than one goal
   bool prismatic_joints;     // takes chains with prismatic joints
-  bool trees;                // solves branched trees in one coupled problem, with priority levels (solve_tree)
+  bool trees;                // solves branched trees in one coupled problem (solve_tree); strict priority
+                             // levels: DLS only, the others weigh levels (docs/full-body.md)
 };
 Span<const SolverInfo> solver_table();
 const SolverInfo& solver_info(SolverKind kind);  // kind must be one of the enum's values

@@ -7,6 +7,9 @@
 // itself. Within a level, goal weights trade goals off as in a chain solve. Below every level an
 // optional posture task pulls the redundant DOFs toward a preferred pose. Joint limits hold at
 // every level (the active set of the Jacobian solvers).
+// That is the tree DLS (SolverKind::kDLS). BFGS, CCD and FABRIK also take trees (the solver table's
+// `trees` column) but have no null space: they weigh each level 1e3 times the one below it
+// (solvers/tree_common.hpp), and CCD and FABRIK ignore the posture. auto_tree_solver() picks.
 #pragma once
 #include <array>
 #include <vector>
