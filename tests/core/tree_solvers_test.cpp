@@ -34,7 +34,7 @@ std::vector<SolverKind> tree_solvers() {
 // fixed and a floating root, and the median position error it must stay under. Thresholds: the
 // lower of the two roots' measured values, minus a margin (the test prints the measured ones):
 //   dls      position 99 / 100, 6-D 98 / 100          (medians ~1e-7 m)
-//   bfgs     position 99 / 100, 6-D 66 / 98          (medians ~1e-6 m)
+//   bfgs     position 99 / 100, 6-D 67 / 98          (medians ~1e-6 m)
 //   ccd      position 29 / 77,  6-D 0 / 0  in 500 sweeps (medians 0.13 mm / 0.01 mm; 6-D 15 / 8 mm):
 //            linear convergence, slowest where the spine is shared
 //   fabrik   position 2 / 4,    6-D 0 / 0             (medians 26 / 41 mm; 6-D 160 / 120 mm): the
@@ -74,6 +74,7 @@ Rate rate_of_100(SolverKind kind, bool floating, bool orientation) {
   TreeWorkspace ws(t, 12);
   SolverOptions o;
   o.max_iterations = 500;
+  o.time_cap_usec = 0.0;  // no wall-clock cap: the verdict must not depend on the machine's load
   int converged = 0, iterations = 0;
   std::vector<double> errors;
   for (int trial = 0; trial < 100; ++trial) {
@@ -198,6 +199,7 @@ TEST(TreeSolvers, WeightedSolversFavourLevelOne) {
   p.goals = goals;
   SolverOptions o;
   o.max_iterations = 500;
+  o.time_cap_usec = 0.0;  // no wall-clock cap: the verdict must not depend on the machine's load
   for (SolverKind kind : tree_solvers()) {
     Eigen::VectorXd q = rest;
     const TreeSolveResult r = solve_tree(kind, t, p, o, ws, q);
