@@ -1,0 +1,247 @@
+# IKBody's game-developer features on a humanoid built from Godot's SkeletonProfileHumanoid: a
+# look spread over spine, neck and head (IKBodyEffector.look_at / look_shares), baking the IK over
+# an animation into a new Animation (IKBodyBaker), and foot placement on physics ground
+# (IKFootPlacement). Poses are read inside skeleton_updated (the modifier's output) and checked by
+# forward kinematics.
+extends "res://lib/ik_test.gd"
+
+const FLOAT_SLACK := 2e-5
+const DEG := PI / 180.0
+## Head, neck, upper chest, chest, spine: the look's share per bone (the effector's bone first).
+const SHARES := [0.35, 0.25, 0.15, 0.15, 0.1]
+const LOOK_BONES := ["Head", "Neck", "UpperChest", "Chest", "Spine"]
+
+
+# ------------------------------------------------------------------ fixtures
+
+func _humanoid() -> Skeleton3D:
+	var profile := SkeletonProfileHumanoid.new()
+	var skel := Skeleton3D.new()
+	skel.name = "Skeleton"
+	for i in profile.bone_size:
+		skel.add_bone(profile.get_bone_name(i))
+	for i in profile.bone_size:
+		var parent: StringName = profile.get_bone_parent(i)
+		if parent != &"":
+			skel.set_bone_parent(i, skel.find_bone(parent))
+		skel.set_bone_rest(i, profile.get_reference_pose(i))
+	skel.reset_bone_poses()
+	return skel
+
+
+func _effector(bone: String, target: Node3D, priority := 1, position_weight := 1.0,
+		rotation_weight := 0.0) -> IKBodyEffector:
+	var e := IKBodyEffector.new()
+	e.bone_name = bone
+	e.priority = priority
+	e.position_weight = position_weight
+	e.rotation_weight = rotation_weight
+	if target != null:
+		e.target = NodePath("../../" + String(target.name))
+	return e
+
+
+func _target(name: String, t: Transform3D) -> Node3D:
+	var n := Node3D.new()
+	n.name = name
+	n.transform = t
+	case_root.add_child(n)
+	return n
+
+
+func _cone(bone: String, cone_deg: float, twist_deg: float) -> IKChainJoint:
+	var j := IKChainJoint.new()
+	j.bone_name = bone
+	j.cone_limit_enabled = true
+	j.cone_angle = cone_deg * DEG
+	j.twist_limit_enabled = true
+	j.twist_min = -twist_deg * DEG
+	j.twist_max = twist_deg * DEG
+	return j
+
+
+## The skeleton's global and local bone poses at the next skeleton_updated (skeleton at the
+## origin: skeleton space = world).
+func _capture(skel: Skeleton3D, body: IKBody) -> Dictionary:
+	var cap := {}
+	var grab := func():
+		if cap.is_empty():
+			var globals := []
+			var locals := []
+			for i in skel.get_bone_count():
+				globals.append(skel.get_bone_global_pose(i))
+				locals.append(skel.get_bone_pose(i))
+			cap["globals"] = globals
+			cap["locals"] = locals
+			cap["result"] = body.get_last_result()
+	skel.skeleton_updated.connect(grab)
+	var waited := 0
+	while cap.is_empty() and waited < 4:
+		await process_frame
+		waited += 1
+	skel.skeleton_updated.disconnect(grab)
+	return cap
+
+
+func _warnings(body: IKBody) -> String:
+	return "\n".join(body._get_configuration_warnings())
+
+
+## The angle between two rotations (rad), accurate for small angles.
+static func _angle(a: Quaternion, b: Quaternion) -> float:
+	var d := minf((a - b).length(), (a + b).length())
+	return 4.0 * asin(minf(d * 0.5, 1.0))
+
+
+# ------------------------------------------------------------------ look-at spread
+
+## A body whose head looks at `target` with SHARES over head..spine, cones on the spine and neck.
+func _look_rig(target_position: Vector3, neck_twist_deg := 60.0) -> Dictionary:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var head := skel.find_bone("Head")
+	var head_rest := skel.get_bone_global_pose(head)
+	var t := _target("LookTarget", Transform3D(Basis(), target_position))
+	var e := _effector("Head", t, 1, 0.0, 1.0)
+	e.look_at = true
+	# The head's own axis that faces the character's forward (+Z) at rest.
+	e.look_axis = (head_rest.basis.inverse() * Vector3(0, 0, 1)).normalized()
+	e.look_shares = SHARES
+	var body := IKBody.new()
+	body.root_bone = "Hips"
+	body.joints = [_cone("Spine", 30, 30), _cone("Chest", 30, 30), _cone("UpperChest", 30, 30),
+			_cone("Neck", 40, neck_twist_deg)]
+	body.effectors = [e]
+	skel.add_child(body)
+	return {"skeleton": skel, "body": body, "effector": e, "head_rest": head_rest}
+
+
+## How far each of LOOK_BONES turned from its rest (rad) and the head's aim error (rad).
+func _look_measure(skel: Skeleton3D, cap: Dictionary, e: IKBodyEffector, target_position: Vector3) -> Dictionary:
+	var turns := {}
+	for bone in LOOK_BONES:
+		var i := skel.find_bone(bone)
+		var rest := skel.get_bone_rest(i).basis.get_rotation_quaternion()
+		turns[bone] = _angle(rest, (cap["locals"][i] as Transform3D).basis.get_rotation_quaternion())
+	var head_global: Transform3D = cap["globals"][skel.find_bone("Head")]
+	var facing := (head_global.basis * e.look_axis).normalized()
+	var wanted := (target_position - head_global.origin).normalized()
+	return {"turns": turns, "aim_error": facing.angle_to(wanted)}
+
+
+# A target 60 degrees to the side: the head aims at it within 1 degree, each bone takes its set
+# share of the turn within 2 degrees (so the torso does not turn as a block), the cones hold.
+func test_look_at_spreads_the_turn_by_share() -> void:
+	var skel0 := _humanoid()
+	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
+	skel0.free()
+	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
+	var rig := _look_rig(target_position)
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	var m := _look_measure(skel, cap, rig["effector"], target_position)
+	check_le(m["aim_error"], 1.0 * DEG, "the head aims at the target (rad)")
+	check(body.is_last_usable(), "usable: " + body.get_last_reason())
+	check_le(body.get_last_effector_rotation_error(0), 1.0 * DEG, "the reported aim error (rad)")
+	var total := 0.0
+	for bone in LOOK_BONES:
+		total += m["turns"][bone]
+	check_near(total, 60 * DEG, 3 * DEG, "the bones' turns add up to the look (rad)")
+	for k in LOOK_BONES.size():
+		var bone: String = LOOK_BONES[k]
+		print("  look share %-10s set %.2f  turned %5.1f deg (%.2f of the turn)" % [bone, SHARES[k],
+				m["turns"][bone] / DEG, m["turns"][bone] / total])
+		check_near(m["turns"][bone], SHARES[k] * 60 * DEG, 2 * DEG, bone + " turned its share (rad)")
+	# Not as a block: the spine turns a fraction of the head's turn.
+	check_le(m["turns"]["Spine"], 0.2 * 60 * DEG, "the spine turns little (rad)")
+	for bone in ["Spine", "Chest", "UpperChest"]:
+		check_le(m["turns"][bone], 30 * DEG + 1e-3, bone + " within its limits (rad)")
+
+
+# A neck whose twist limit (5 degrees) is below its share: the neck stops at its limit, the head
+# takes what the neck withholds and still aims within 1 degree.
+func test_look_at_limits_hold_and_pass_the_rest_on() -> void:
+	var skel0 := _humanoid()
+	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
+	skel0.free()
+	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
+	var rig := _look_rig(target_position, 5.0)
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	var m := _look_measure(skel, cap, rig["effector"], target_position)
+	check_le(m["aim_error"], 1.0 * DEG, "the head still aims at the target (rad)")
+	check_le(m["turns"]["Neck"], 5 * DEG + 1e-3, "the neck holds its 5 degree twist limit (rad)")
+	check(m["turns"]["Head"] > SHARES[0] * 60 * DEG + 5 * DEG, "the head took what the neck withheld")
+
+
+# Influence 0.5: the look turns half way from the animated (rest) pose.
+func test_look_at_influence_turns_part_way() -> void:
+	var skel0 := _humanoid()
+	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
+	skel0.free()
+	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
+	var rig := _look_rig(target_position)
+	(rig["effector"] as IKBodyEffector).influence = 0.5
+	var skel: Skeleton3D = rig["skeleton"]
+	var cap := await _capture(skel, rig["body"])
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	var m := _look_measure(skel, cap, rig["effector"], target_position)
+	check_near(m["aim_error"], 30 * DEG, 2 * DEG, "the head turned half way (rad)")
+
+
+# Without look_shares the look is still an aim goal: the solver spreads it by motion cost.
+func test_look_at_without_shares_still_aims() -> void:
+	var skel0 := _humanoid()
+	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
+	skel0.free()
+	var target_position := head_origin + 2.0 * Vector3(sin(40 * DEG), 0.3, cos(40 * DEG))
+	var rig := _look_rig(target_position)
+	(rig["effector"] as IKBodyEffector).look_shares = []
+	var skel: Skeleton3D = rig["skeleton"]
+	var cap := await _capture(skel, rig["body"])
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	var m := _look_measure(skel, cap, rig["effector"], target_position)
+	check_le(m["aim_error"], 1.0 * DEG, "the head aims at the target (rad)")
+
+
+func test_look_at_bad_settings_are_named_with_their_fix() -> void:
+	var t := _target("T", Transform3D(Basis(), Vector3(1, 1.5, 1)))
+	var cases := [
+		[[0.5, -1.0], 1.0, "look_shares holds a negative, non-finite or non-number entry"],
+		[[0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1], 1.0, "look_shares has 8 entries, but only 6 bones"],
+		[[0.0, 0.0], 1.0, "look_shares are all 0"],
+		[[0.5, 0.5], 0.0, "look_at aims the bone with rotation_weight, which is 0"],
+	]
+	for c in cases:
+		var skel := _humanoid()
+		case_root.add_child(skel)
+		var e := _effector("Head", t, 1, 1.0, c[1])
+		e.look_at = true
+		e.look_shares = c[0]
+		var body := IKBody.new()
+		body.root_bone = "Hips"
+		body.effectors = [e]
+		skel.add_child(body)
+		var w := _warnings(body)
+		check(w.contains(c[2]), "warning contains '%s'; got: %s" % [c[2], w])
+		# The body still runs (or keeps the animated pose): a defined, finite pose either way.
+		var cap := await _capture(skel, body)
+		for i in skel.get_bone_count():
+			var g: Transform3D = cap["globals"][i] if not cap.is_empty() else skel.get_bone_global_pose(i)
+			if not check(g.is_finite(), c[2] + ": finite pose"):
+				break
+		skel.free()
+	var e2 := IKBodyEffector.new()
+	expect_error("look_axis must be a finite non-zero vector", 1)
+	e2.look_axis = Vector3.ZERO
+	check_eq(e2.look_axis, Vector3(0, 0, 1), "a zero look_axis is refused; the default stays")
+	check_eq(e2.look_at, false, "look_at default")
+
