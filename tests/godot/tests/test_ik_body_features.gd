@@ -245,3 +245,173 @@ func test_look_at_bad_settings_are_named_with_their_fix() -> void:
 	check_eq(e2.look_axis, Vector3(0, 0, 1), "a zero look_axis is refused; the default stays")
 	check_eq(e2.look_at, false, "look_at default")
 
+
+# ------------------------------------------------------------------ bake
+
+const Baker := preload("res://addons/ikchain/ik_body_baker.gd")
+
+
+## A humanoid, a player with the animation "move" (`seconds` long: the left hand's target moves,
+## the spine and the left thigh are animated) and a body reaching both hands (deterministic).
+func _bake_rig(seconds := 2.0) -> Dictionary:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var lhand := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
+	var rhand := skel.get_bone_global_pose(skel.find_bone("RightHand")).origin
+	var lt := _target("LH", Transform3D(Basis(), lhand))
+	var rt := _target("RH", Transform3D(Basis(), rhand + Vector3(0, -0.1, 0.2)))
+	var anim := Animation.new()
+	anim.length = seconds
+	var t := anim.add_track(Animation.TYPE_POSITION_3D)
+	anim.track_set_path(t, NodePath("LH"))
+	anim.position_track_insert_key(t, 0.0, lhand + Vector3(-0.15, -0.1, 0.15))
+	anim.position_track_insert_key(t, seconds * 0.5, lhand + Vector3(-0.1, 0.05, 0.25))
+	anim.position_track_insert_key(t, seconds, lhand + Vector3(-0.2, -0.15, 0.2))
+	var spine_rest := skel.get_bone_rest(skel.find_bone("Spine")).basis.get_rotation_quaternion()
+	t = anim.add_track(Animation.TYPE_ROTATION_3D)
+	anim.track_set_path(t, NodePath("Skeleton:Spine"))
+	anim.rotation_track_insert_key(t, 0.0, spine_rest * Quaternion(Vector3.RIGHT, 0.1))
+	anim.rotation_track_insert_key(t, seconds, spine_rest * Quaternion(Vector3.RIGHT, -0.1))
+	var leg_rest := skel.get_bone_rest(skel.find_bone("LeftUpperLeg")).basis.get_rotation_quaternion()
+	t = anim.add_track(Animation.TYPE_ROTATION_3D)
+	anim.track_set_path(t, NodePath("Skeleton:LeftUpperLeg"))
+	anim.rotation_track_insert_key(t, 0.0, leg_rest)
+	anim.rotation_track_insert_key(t, seconds, leg_rest * Quaternion(Vector3.RIGHT, 0.4))
+	var lib := AnimationLibrary.new()
+	lib.add_animation(&"move", anim)
+	var player := AnimationPlayer.new()
+	player.name = "Player"
+	case_root.add_child(player)
+	player.add_animation_library(&"", lib)
+	var body := IKBody.new()
+	body.root_bone = "Hips"
+	body.deterministic = true
+	body.max_iterations = 200
+	body.effectors = [_effector("LeftHand", lt), _effector("RightHand", rt)]
+	skel.add_child(body)
+	return {"skeleton": skel, "body": body, "player": player, "animation": anim, "library": lib}
+
+
+## Where the body puts the hands at `time` of the source animation: the baker's step, by hand.
+func _ik_hands_at(rig: Dictionary, time: float) -> Array:
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	var player: AnimationPlayer = rig["player"]
+	player.assigned_animation = &"move"
+	player.seek(time, true)
+	var bones := body.get_body_bones()
+	var incoming := []
+	for b in bones:
+		incoming.append(skel.get_bone_pose_rotation(b))
+	body.solve_now()
+	var out := [skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin,
+			skel.get_bone_global_pose(skel.find_bone("RightHand")).origin, body.is_last_usable()]
+	for k in bones.size():
+		skel.set_bone_pose_rotation(bones[k], incoming[k])
+	return out
+
+
+# A 2 s animation whose left-hand target moves (and whose spine is animated): the baked animation,
+# played back with the body off, puts the hands where the body put them (1e-4 m) at every frame;
+# the bones the body does not solve keep their source tracks.
+func test_bake_plays_back_what_the_body_did() -> void:
+	var rig := _bake_rig(2.0)
+	var skel: Skeleton3D = rig["skeleton"]
+	var body: IKBody = rig["body"]
+	var player: AnimationPlayer = rig["player"]
+	var fps := 30.0
+	var baked: Animation = Baker.bake(body, player, &"move", fps)
+	if not check(baked != null, "bake returned an Animation"):
+		return
+	check_near(baked.length, 2.0, 1e-6, "the baked animation is as long as the source")
+	var bones := body.get_body_bones()
+	for b in bones:
+		var track := baked.find_track(NodePath("Skeleton:" + skel.get_bone_name(b)), Animation.TYPE_ROTATION_3D)
+		if check(track >= 0, "a rotation track for " + skel.get_bone_name(b)):
+			check_eq(baked.track_get_key_count(track), 61, skel.get_bone_name(b) + ": a key per frame (2 s at 30 fps)")
+	check(baked.find_track(NodePath("Skeleton:LeftUpperLeg"), Animation.TYPE_ROTATION_3D) >= 0,
+			"the thigh's source track is kept (the body does not solve it)")
+	check(baked.find_track(NodePath("LH"), Animation.TYPE_POSITION_3D) >= 0, "the target's track is kept")
+	check(not player.is_playing(), "the player is left stopped, as it was found")
+
+	# Where the body put the hands, frame by frame (deterministic: the same solve again).
+	var expected := []
+	for f in 61:
+		expected.append(_ik_hands_at(rig, f / fps))
+	# Played back without the body.
+	body.active = false
+	rig["library"].add_animation(&"move_baked", baked)
+	player.assigned_animation = &"move_baked"
+	var worst := 0.0
+	for f in 61:
+		player.seek(f / fps, true)
+		var lh := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
+		var rh := skel.get_bone_global_pose(skel.find_bone("RightHand")).origin
+		check(expected[f][2], "frame %d: the body's solve was usable" % f)
+		worst = maxf(worst, maxf(lh.distance_to(expected[f][0]), rh.distance_to(expected[f][1])))
+	print("  bake: worst playback distance from the body's hands %.3f um over 61 frames" % (worst * 1e6))
+	check_le(worst, 1e-4, "the baked animation puts the hands where the body put them (m)")
+	# And the body reached the moving target.
+	var lt: Node3D = case_root.get_node("LH")
+	player.assigned_animation = &"move"
+	player.seek(1.0, true)
+	player.assigned_animation = &"move_baked"
+	player.seek(1.0, true)
+	check_le(skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin.distance_to(lt.global_position),
+			body.tolerance + FLOAT_SLACK, "at 1 s the baked hand sits on the moving target (m)")
+
+
+# Frames baked per second on the humanoid (printed, not asserted: timing depends on the machine).
+func test_bake_throughput_is_printed() -> void:
+	var rig := _bake_rig(10.0)
+	var fps := 120.0
+	var start := Time.get_ticks_usec()
+	var baked: Animation = Baker.bake(rig["body"], rig["player"], &"move", fps)
+	var seconds := (Time.get_ticks_usec() - start) * 1e-6
+	if not check(baked != null, "bake returned an Animation"):
+		return
+	var frames := int(10.0 * fps) + 1
+	print("  bake: %d frames in %.3f s = %.0f frames per second (target >= 1000)" % [frames, seconds,
+			frames / maxf(seconds, 1e-9)])
+	check_eq(baked.track_get_key_count(baked.find_track(NodePath("Skeleton:LeftHand"), Animation.TYPE_ROTATION_3D)),
+			frames, "every frame keyed")
+
+
+func test_bake_floating_root_records_the_root_position() -> void:
+	var rig := _bake_rig(1.0)
+	var body: IKBody = rig["body"]
+	body.floating_root = true
+	var baked: Animation = Baker.bake(body, rig["player"], &"move", 20.0)
+	if not check(baked != null, "bake returned an Animation"):
+		return
+	var track := baked.find_track(NodePath("Skeleton:Hips"), Animation.TYPE_POSITION_3D)
+	if check(track >= 0, "a position track for the floating root"):
+		check_eq(baked.track_get_key_count(track), 21, "a root position key per frame")
+
+
+func test_bake_bad_inputs_return_null_with_the_fix() -> void:
+	var rig := _bake_rig(1.0)
+	var body: IKBody = rig["body"]
+	var player: AnimationPlayer = rig["player"]
+	expect_error("body is not an IKBody in the scene tree", 1)
+	check(Baker.bake(null, player, &"move", 30.0) == null, "no body: null")
+	expect_error("player is not an AnimationPlayer", 1)
+	check(Baker.bake(body, null, &"move", 30.0) == null, "no player: null")
+	expect_error("the player has no animation 'nope'", 1)
+	check(Baker.bake(body, player, &"nope", 30.0) == null, "missing animation: null")
+	expect_error("fps must be in \\(0, 1000\\], got 0", 1)
+	check(Baker.bake(body, player, &"move", 0.0) == null, "fps 0: null")
+	expect_error("fps must be in \\(0, 1000\\], got nan", 1)
+	check(Baker.bake(body, player, &"move", NAN) == null, "fps NaN: null")
+	body.root_bone = ""
+	expect_error("the body is not configured", 1)
+	check(Baker.bake(body, player, &"move", 30.0) == null, "unconfigured body: null")
+
+
+func test_bake_inspector_action_compiles() -> void:
+	var Inspector: GDScript = load("res://addons/ikchain/ik_body_inspector.gd")
+	if not check(Inspector != null, "ik_body_inspector.gd compiles"):
+		return
+	var constants := Inspector.get_script_constant_map()
+	check_eq(constants.get("BAKE_TEXT"), "Bake animation...", "the bake button's text")
+
