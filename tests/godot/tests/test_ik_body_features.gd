@@ -415,3 +415,161 @@ func test_bake_inspector_action_compiles() -> void:
 	var constants := Inspector.get_script_constant_map()
 	check_eq(constants.get("BAKE_TEXT"), "Bake animation...", "the bake button's text")
 
+
+# ------------------------------------------------------------------ foot placement
+
+const FootPlacement := preload("res://addons/ikchain/ik_foot_placement.gd")
+
+
+## A box of `size` whose top face's centre is at `top_center`, tilted by `tilt` (the top's normal
+## is tilt * up).
+func _ground(name: String, top_center: Vector3, size: Vector3, tilt := Basis()) -> StaticBody3D:
+	var body := StaticBody3D.new()
+	body.name = name
+	var shape := CollisionShape3D.new()
+	var box := BoxShape3D.new()
+	box.size = size
+	shape.shape = box
+	body.add_child(shape)
+	body.transform = Transform3D(tilt, top_center - tilt * Vector3(0, size.y * 0.5, 0))
+	case_root.add_child(body)
+	return body
+
+
+## A humanoid with the set-up body (floating root, hips and feet at level 1) and an
+## IKFootPlacement driven by hand (enabled off; the test calls place()).
+func _foot_rig() -> Dictionary:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	body.setup_humanoid()
+	body.max_iterations = 300
+	# Only the feet and the hips: the hands and the head follow the animation.
+	var kept: Array[IKBodyEffector] = []
+	for e in body.effectors:
+		if e.bone_name in ["Hips", "LeftFoot", "RightFoot"]:
+			kept.append(e)
+	body.effectors = kept
+	var feet: Node = FootPlacement.new()
+	feet.enabled = false
+	body.add_child(feet)
+	return {"skeleton": skel, "body": body, "feet": feet}
+
+
+## place() `frames` times at 60 Hz, then the pose the body makes of it.
+func _settle(rig: Dictionary, frames: int) -> Dictionary:
+	for i in frames:
+		check(rig["feet"].place(1.0 / 60.0), "place() ran")
+	return await _capture(rig["skeleton"], rig["body"])
+
+
+func _foot_error(skel: Skeleton3D, cap: Dictionary, bone: String, rest_height: float, plane_point: Vector3,
+		normal: Vector3) -> Dictionary:
+	var g: Transform3D = cap["globals"][skel.find_bone(bone)]
+	var rest_up_local := skel.get_bone_global_pose(skel.find_bone(bone)).basis.inverse() * Vector3.UP
+	return {
+		"height": absf((g.origin - plane_point).dot(normal) - rest_height),
+		"tilt": (g.basis * rest_up_local).normalized().angle_to(normal),
+	}
+
+
+# A 20-degree slope across the feet: each foot sits on the surface (its ankle the rest height above
+# it, along the normal, within 5 mm), its up axis along the normal within 2 degrees; the hips drop.
+func test_foot_placement_on_a_slope() -> void:
+	var rig := _foot_rig()
+	var skel: Skeleton3D = rig["skeleton"]
+	var tilt := Basis(Vector3(0, 0, 1), 20 * DEG)
+	var normal := tilt * Vector3.UP
+	_ground("Slope", Vector3.ZERO, Vector3(4, 0.2, 4), tilt)
+	await physics_frame
+	await physics_frame
+	var rest_hips := skel.get_bone_global_pose(skel.find_bone("Hips")).origin
+	var rest_height := skel.get_bone_global_pose(skel.find_bone("LeftFoot")).origin.y
+	var cap := await _settle(rig, 120)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check(rig["body"].is_last_usable(), "the body solved: " + rig["body"].get_last_reason())
+	for bone in ["LeftFoot", "RightFoot"]:
+		var err := _foot_error(skel, cap, bone, rest_height, Vector3.ZERO, normal)
+		print("  slope: %s %.2f mm off the surface, up axis %.2f deg off the normal" % [bone, err["height"] * 1e3,
+				err["tilt"] / DEG])
+		check_le(err["height"], 0.005, bone + " on the slope (m)")
+		check_le(err["tilt"], 2 * DEG, bone + " up axis along the normal (rad)")
+	var hips := (cap["globals"][skel.find_bone("Hips")] as Transform3D).origin
+	check(hips.y < rest_hips.y - 0.01, "the hips lowered so the lower foot reaches (%.3f m)" % (rest_hips.y - hips.y))
+
+
+# A step down under the left foot (15 cm): both feet on their ground within 5 mm, flat, the hips
+# lowered; the change from flat ground to the step is spread over frames (bounded per frame).
+func test_foot_placement_on_a_step_without_pops() -> void:
+	var rig := _foot_rig()
+	var skel: Skeleton3D = rig["skeleton"]
+	var feet: Node = rig["feet"]
+	var body: IKBody = rig["body"]
+	var rest_hips := skel.get_bone_global_pose(skel.find_bone("Hips")).origin
+	var rest_height := skel.get_bone_global_pose(skel.find_bone("LeftFoot")).origin.y
+	var left_x := skel.get_bone_global_pose(skel.find_bone("LeftFoot")).origin.x
+	var upper := _ground("Upper", Vector3(-1.0 + left_x * 0.5, 0, 0), Vector3(2.0, 0.2, 2))  # ends between the feet
+	var flat := _ground("Flat", Vector3(left_x, 0, 0), Vector3(0.4, 0.2, 2))  # under the left foot, at 0
+	_ground("Lower", Vector3(1.0 + left_x * 0.5, -0.15, 0), Vector3(2.0, 0.2, 2))
+	await physics_frame
+	await physics_frame
+	var cap := await _settle(rig, 30)
+	check_near(feet.get_foot_offset(0), 0.0, 1e-4, "on flat ground the left foot's offset is 0 (m)")
+	# The flat patch goes: the left foot is now over the lower ground, 15 cm down.
+	flat.get_parent().remove_child(flat)
+	flat.free()
+	await physics_frame
+	await physics_frame
+	var bound: float = feet.max_height_speed / 60.0 + 1e-6
+	var previous_foot := (body.effectors[1] as IKBodyEffector).target_transform.origin
+	var previous_hips := (body.effectors[0] as IKBodyEffector).target_transform.origin
+	var worst_foot := 0.0
+	var worst_hips := 0.0
+	var frames_to_arrive := -1
+	for i in 120:
+		feet.place(1.0 / 60.0)
+		var foot := (body.effectors[1] as IKBodyEffector).target_transform.origin
+		var hips_t := (body.effectors[0] as IKBodyEffector).target_transform.origin
+		worst_foot = maxf(worst_foot, foot.distance_to(previous_foot))
+		worst_hips = maxf(worst_hips, hips_t.distance_to(previous_hips))
+		previous_foot = foot
+		previous_hips = hips_t
+		if frames_to_arrive < 0 and absf(feet.get_foot_offset(0) + 0.15) < 1e-3:
+			frames_to_arrive = i + 1
+	print("  step: worst per-frame move: foot target %.1f mm, hips target %.1f mm (bound %.1f mm); on the step "
+			% [worst_foot * 1e3, worst_hips * 1e3, bound * 1e3] + "after %d frames" % frames_to_arrive)
+	check_le(worst_foot, bound, "the foot target moves at most max_height_speed per frame (m)")
+	check_le(worst_hips, bound, "the hips target moves at most max_height_speed per frame (m)")
+	check(frames_to_arrive >= 6, "the 15 cm step is spread over frames (%d)" % frames_to_arrive)
+	check(frames_to_arrive > 0 and frames_to_arrive <= 60, "and arrives within a second (%d)" % frames_to_arrive)
+	cap = await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	var left := _foot_error(skel, cap, "LeftFoot", rest_height, Vector3(0, -0.15, 0), Vector3.UP)
+	var right := _foot_error(skel, cap, "RightFoot", rest_height, Vector3.ZERO, Vector3.UP)
+	check_le(left["height"], 0.005, "the left foot on the lower step (m)")
+	check_le(right["height"], 0.005, "the right foot on the upper ground (m)")
+	check_le(left["tilt"], 2 * DEG, "the left foot flat (rad)")
+	check_le(right["tilt"], 2 * DEG, "the right foot flat (rad)")
+	var hips := (cap["globals"][skel.find_bone("Hips")] as Transform3D).origin
+	check(hips.y < rest_hips.y - 0.1, "the hips lowered on the step (%.3f m)" % (rest_hips.y - hips.y))
+	check(upper != null, "fixture")
+
+
+func test_foot_placement_warnings_name_the_fix() -> void:
+	var rig := _foot_rig()
+	var feet: Node = rig["feet"]
+	var body: IKBody = rig["body"]
+	check_eq(feet._get_configuration_warnings().size(), 0, "the set-up body: no warning")
+	feet.feet = PackedStringArray(["LeftFoot", "LeftToes"])
+	check(" ".join(feet._get_configuration_warnings()).contains("no effector of the IKBody has bone 'LeftToes'"),
+			"a foot without an effector is named")
+	feet.feet = PackedStringArray(["LeftFoot", "RightFoot"])
+	body.floating_root = false
+	check(" ".join(feet._get_configuration_warnings()).contains("floating_root is off"), "the hips need a floating root")
+	var orphan: Node = FootPlacement.new()
+	case_root.add_child(orphan)
+	check(" ".join(orphan._get_configuration_warnings()).contains("the parent is not an IKBody"), "outside an IKBody")
+	check(not orphan.place(1.0 / 60.0), "place() outside an IKBody does nothing")
