@@ -50,6 +50,13 @@ var _body: IKBody
 var _resolved_size := -1
 var _foot_effectors: Array[IKBodyEffector] = []
 var _hips_effector: IKBodyEffector
+# Skeleton bone indices of the feet and the hips (-1: not a bone), resolved with the effectors.
+var _foot_bones := PackedInt32Array()
+var _hips_bone := -1
+var _resolved_skeleton: Skeleton3D
+var _resolved_bone_count := -1
+var _resolved_ok := false
+var _resolved_floating := false
 var _query := PhysicsRayQueryParameters3D.new()
 # Per foot: the smoothed height offset from the animation along up (m) and surface normal.
 var _offset := PackedFloat64Array()
@@ -109,7 +116,7 @@ func place(delta: float) -> bool:
 	if _body == null or not is_instance_valid(_body) or not _body.is_inside_tree():
 		return false
 	var skel := _body.get_skeleton()
-	if skel == null or not _resolve():
+	if skel == null or not _resolve(skel):
 		return false
 	var space := _body.get_world_3d().direct_space_state
 	var skel_xform := skel.global_transform
@@ -125,7 +132,9 @@ func place(delta: float) -> bool:
 	var lowest := 0.0
 	for k in _foot_effectors.size():
 		var e := _foot_effectors[k]
-		var animated := skel_xform * skel.get_bone_global_pose(skel.find_bone(e.bone_name))
+		if _foot_bones[k] < 0:
+			continue
+		var animated := skel_xform * skel.get_bone_global_pose(_foot_bones[k])
 		var height := (animated.origin - ground).dot(up)  # how high the animation holds the foot
 		var foot_on_plane := animated.origin - up * height
 		_query.from = foot_on_plane + up * (height + ray_above)
@@ -142,13 +151,14 @@ func place(delta: float) -> bool:
 		# The foot turned from the animation's up onto the surface normal, its origin the animated
 		# height above the (smoothed) ground point along the normal: a foot on a slope sits on it.
 		var tilt := Quaternion(up, _normal[k]) if up.dot(_normal[k]) > -0.999 else Quaternion()
-		var target := Transform3D(Basis(tilt) * animated.basis, foot_on_plane + up * _offset[k] + _normal[k] * height)
+		var target := Transform3D(Basis(tilt) * animated.basis,
+				foot_on_plane + up * _offset[k] + _normal[k] * height)
 		lowest = minf(lowest, (target.origin - animated.origin).dot(up))
 		e.target_transform = target
-	if _hips_effector != null:
+	if _hips_effector != null and _hips_bone >= 0:
 		var hips_goal := minf(lowest, 0.0)
 		_hips_offset = _hips_offset + clampf((hips_goal - _hips_offset) * step, -max_rise, max_rise)
-		var animated_hips := skel_xform * skel.get_bone_global_pose(skel.find_bone(_hips_effector.bone_name))
+		var animated_hips := skel_xform * skel.get_bone_global_pose(_hips_bone)
 		_hips_effector.target_transform = Transform3D(animated_hips.basis, animated_hips.origin + up * _hips_offset)
 	_started = true
 	return true
@@ -164,14 +174,20 @@ func get_hips_offset() -> float:
 	return _hips_offset
 
 
-## Forgets the smoothed state: the next frame jumps to the ground (after a teleport).
+## Forgets the smoothed state, so the next frame jumps to the ground (after a teleport), and looks
+## the effectors up again (after the body's effectors were replaced by others).
 func reset() -> void:
 	_started = false
+	_resolved_size = -1
 
 
-func _resolve() -> bool:
-	if _resolved_size == _body.effectors.size() and _foot_effectors.size() == feet.size():
-		return true
+func _resolve(skel: Skeleton3D) -> bool:
+	if _resolved_size == _body.effectors.size() and _resolved_skeleton == skel \
+			and _resolved_bone_count == skel.get_bone_count() and _resolved_floating == _body.floating_root:
+		return _resolved_ok  # (a failure was reported once, when it was found)
+	_resolved_skeleton = skel
+	_resolved_bone_count = skel.get_bone_count()
+	_resolved_floating = _body.floating_root
 	_foot_effectors.clear()
 	_hips_effector = null
 	var by_bone := {}
@@ -184,6 +200,7 @@ func _resolve() -> bool:
 					+ "Foot placement is off until then.")
 			_foot_effectors.clear()
 			_resolved_size = _body.effectors.size()
+			_resolved_ok = false
 			return false
 		_foot_effectors.append(by_bone[f])
 	if hips != "" and by_bone.has(hips) and _body.floating_root:
@@ -191,6 +208,10 @@ func _resolve() -> bool:
 	for e in _foot_effectors + ([_hips_effector] if _hips_effector != null else []):
 		if not e.use_target_transform:
 			e.use_target_transform = true
+	_foot_bones.clear()
+	for e in _foot_effectors:
+		_foot_bones.append(skel.find_bone(e.bone_name))
+	_hips_bone = skel.find_bone(_hips_effector.bone_name) if _hips_effector != null else -1
 	_offset.resize(_foot_effectors.size())
 	_offset.fill(0.0)
 	_normal.clear()
@@ -198,6 +219,7 @@ func _resolve() -> bool:
 		_normal.append(Vector3.UP)
 	_started = false
 	_resolved_size = _body.effectors.size()
+	_resolved_ok = true
 	return true
 
 
