@@ -973,6 +973,12 @@ bool IKBody::setup_humanoid() {
     e->set_priority(spec.priority);
     e->set_position_weight(spec.position_weight);
     e->set_rotation_weight(spec.rotation_weight);
+    if (std::string_view(spec.bone) == "Head") {
+      // Ready to look (turn on look_at): the turn spread over head, neck, upper chest, chest, spine.
+      gdx::Array shares;
+      for (double share : {0.35, 0.25, 0.15, 0.15, 0.1}) shares.push_back(gdx::Variant(share));
+      e->set_look_shares(shares);
+    }
     effectors.push_back(held);
   }
 

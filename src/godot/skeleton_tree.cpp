@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/kinematics.hpp"
 #include "core/so3.hpp"
 
 namespace ikchain::godot {
@@ -282,6 +283,7 @@ bool SkeletonTree::spread_look(Span<const int> bones, Span<const double> shares,
     if (bones[k] < 0 || bones[k] >= bone_count()) return false;
   const glm::dvec3 axis_local = aim_axis / axis_length;
   const int end = bones[count - 1];
+  const double on_point = kAimAtOnPoint * (tree_.total_length() + glm::length(target_in_tree));
   double shares_left = 0.0;
   for (int k = 0; k < count; ++k) shares_left += std::max(shares[k], 0.0);
   for (int k = 0; k < count; ++k) {
@@ -293,7 +295,8 @@ bool SkeletonTree::spread_look(Span<const int> bones, Span<const double> shares,
     const glm::dvec3 facing = ws.joint_orientations[size_t(end)] * axis_local;
     glm::dvec3 wanted = target_in_tree - ws.joint_origins[size_t(end)];
     const double distance = glm::length(wanted);
-    if (!(distance > 1e-9)) return k > 0;
+    // On the point (as the core's aim goal measures it): no direction to look along, only rounding.
+    if (!(distance > on_point)) return k > 0;
     wanted /= distance;
     glm::dvec3 about = glm::cross(facing, wanted);
     const double sine = glm::length(about);

@@ -120,7 +120,8 @@ class SkeletonTree {
   // (the shortest turn, in base space). Each joint's limits hold; what a limit withholds passes on
   // to the bones after it, and the last bone takes what is left, so the look is exact unless the
   // last joint's limits stop it. Shares need not sum to 1; a share <= 0 keeps its bone. False (and
-  // params untouched) when the target sits on the bone's origin or the inputs are not finite.
+  // params untouched) when the target sits on the bone's origin (within the core's kAimAtOnPoint
+  // radius: the direction would be rounding) or the inputs are not finite.
   // `ws` is scratch for the forward kinematics (sized for the tree). Allocates nothing.
   bool spread_look(Span<const int> bones, Span<const double> shares, const glm::dvec3& aim_axis,
                    const glm::dvec3& target_in_tree, double* params, TreeWorkspace& ws) const;

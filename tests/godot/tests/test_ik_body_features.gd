@@ -212,6 +212,62 @@ func test_look_at_without_shares_still_aims() -> void:
 	check_le(m["aim_error"], 1.0 * DEG, "the head aims at the target (rad)")
 
 
+# setup_humanoid() leaves the head ready to look: turning on look_at and giving it a target is all;
+# the feet stay planted (level 1) while the head (level 3) looks 50 degrees aside and up.
+func test_look_at_on_the_set_up_humanoid() -> void:
+	var skel := _humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	check(body.setup_humanoid(), "set up")
+	var head_origin := skel.get_bone_global_pose(skel.find_bone("Head")).origin
+	var target_position := head_origin + 2.0 * Vector3(sin(50 * DEG), 0.3, cos(50 * DEG))
+	var t := _target("LookTarget", Transform3D(Basis(), target_position))
+	var kept: Array[IKBodyEffector] = []
+	for e in body.effectors:
+		if e.bone_name in ["Hips", "LeftFoot", "RightFoot"]:
+			e.use_target_transform = true
+			e.target_transform = skel.get_bone_global_pose(skel.find_bone(e.bone_name))
+			kept.append(e)
+		elif e.bone_name == "Head":
+			check_eq(e.look_shares.size(), 5, "the head's look spreads over five bones")
+			e.look_at = true
+			e.target = NodePath("../../LookTarget")
+			kept.append(e)
+	body.effectors = kept
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	var head_global: Transform3D = cap["globals"][skel.find_bone("Head")]
+	var facing := (head_global.basis * Vector3(0, 0, 1)).normalized()
+	check_le(facing.angle_to((target_position - head_global.origin).normalized()), 1.0 * DEG,
+			"the head aims at the target (rad)")
+	for bone in ["LeftFoot", "RightFoot"]:
+		var g: Transform3D = cap["globals"][skel.find_bone(bone)]
+		check_le(g.origin.distance_to(skel.get_bone_global_pose(skel.find_bone(bone)).origin), 1e-3,
+				bone + " stays planted (m)")
+	check(body.is_last_level_met(1), "level 1 (feet, hips) met")
+	check(t != null, "fixture")
+
+
+# A look target on the head's own origin: no direction to look along; a defined, finite pose.
+func test_look_at_target_on_the_bone_keeps_a_defined_pose() -> void:
+	var skel0 := _humanoid()
+	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
+	skel0.free()
+	var rig := _look_rig(head_origin)
+	var skel: Skeleton3D = rig["skeleton"]
+	var cap := await _capture(skel, rig["body"])
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	for i in skel.get_bone_count():
+		if not check((cap["globals"][i] as Transform3D).is_finite(), "finite pose"):
+			break
+	var head := skel.find_bone("Head")
+	check_le(_angle(skel.get_bone_rest(head).basis.get_rotation_quaternion(),
+			(cap["locals"][head] as Transform3D).basis.get_rotation_quaternion()), 1e-3, "the head does not turn")
+
+
 func test_look_at_bad_settings_are_named_with_their_fix() -> void:
 	var t := _target("T", Transform3D(Basis(), Vector3(1, 1.5, 1)))
 	var cases := [
