@@ -268,6 +268,37 @@ func test_look_at_target_on_the_bone_keeps_a_defined_pose() -> void:
 			(cap["locals"][head] as Transform3D).basis.get_rotation_quaternion()), 1e-3, "the head does not turn")
 
 
+# The gizmo draws a look as the line to the target and the bone's look axis, as long: after the
+# solve they coincide (the look's error is the angle between them).
+func test_look_at_gizmo_draws_the_look_axis() -> void:
+	var skel0 := _humanoid()
+	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
+	skel0.free()
+	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
+	var rig := _look_rig(target_position)
+	var skel: Skeleton3D = rig["skeleton"]
+	var BodyDrawer: GDScript = load("res://addons/ikchain/ik_body_drawer.gd")
+	var lines := {}
+	var grab := func():
+		if lines.is_empty():
+			lines.merge(BodyDrawer.build(rig["body"]))
+	skel.skeleton_updated.connect(grab)
+	for i in 4:
+		if lines.is_empty():
+			await process_frame
+	skel.skeleton_updated.disconnect(grab)
+	if not check(not lines.is_empty(), "drawn in skeleton_updated"):
+		return
+	var target: PackedVector3Array = lines["target"]
+	# A cross (3 segments) and the line to the target, then the look axis.
+	if not check_eq(target.size(), 3 * 2 + 2 + 2, "a cross, the line to the target and the look axis"):
+		return
+	var to_target := target[7] - target[6]
+	var look := target[9] - target[8]
+	check_near(look.length(), to_target.length(), 1e-4, "the look axis is as long as the line to the target (m)")
+	check_le(look.angle_to(to_target), 1.0 * DEG, "after the solve they coincide (rad)")
+
+
 func test_look_at_bad_settings_are_named_with_their_fix() -> void:
 	var t := _target("T", Transform3D(Basis(), Vector3(1, 1.5, 1)))
 	var cases := [
