@@ -1,4 +1,5 @@
 @tool
+@icon("res://addons/ikchain/icons/IKBody.svg")
 class_name IKBodyBaker
 extends RefCounted
 ## Bakes an IKBody's result over an animation into a new Animation.

@@ -1,4 +1,5 @@
 @tool
+@icon("res://addons/ikchain/icons/IKBodyEffector.svg")
 class_name IKFootPlacement
 extends Node
 ## Foot placement on uneven ground for an [IKBody]: add it as a child of the IKBody and name the

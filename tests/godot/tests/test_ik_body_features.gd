@@ -650,6 +650,24 @@ func test_foot_placement_on_a_step_without_pops() -> void:
 	check(upper != null, "fixture")
 
 
+# No ground under the feet (the rays hit nothing): the feet and the hips follow the animation.
+func test_foot_placement_without_ground_follows_the_animation() -> void:
+	var rig := _foot_rig()
+	var skel: Skeleton3D = rig["skeleton"]
+	await physics_frame
+	var rest := {}
+	for bone in ["Hips", "LeftFoot", "RightFoot"]:
+		rest[bone] = skel.get_bone_global_pose(skel.find_bone(bone)).origin
+	var cap := await _settle(rig, 10)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check_near(rig["feet"].get_foot_offset(0), 0.0, 0.0, "no hit: no offset")
+	check_near(rig["feet"].get_hips_offset(), 0.0, 0.0, "no hit: the hips stay")
+	for bone in rest:
+		check_le((cap["globals"][skel.find_bone(bone)] as Transform3D).origin.distance_to(rest[bone]), 1e-3,
+				bone + " where the animation has it (m)")
+
+
 func test_foot_placement_warnings_name_the_fix() -> void:
 	var rig := _foot_rig()
 	var feet: Node = rig["feet"]
