@@ -161,6 +161,30 @@ func test_look_at_spreads_the_turn_by_share() -> void:
 		check_le(m["turns"][bone], 30 * DEG + 1e-3, bone + " within its limits (rad)")
 
 
+# Tracking: the target sweeps from 60 degrees left to 40 degrees right over 30 frames (each frame
+# warm-starts from the last solution): the shares hold at the end as they do from rest.
+func test_look_at_tracking_a_moving_target_keeps_the_shares() -> void:
+	var skel0 := _humanoid()
+	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
+	skel0.free()
+	var at := func(deg: float) -> Vector3:
+		return head_origin + 2.0 * Vector3(sin(deg * DEG), 0, cos(deg * DEG))
+	var rig := _look_rig(at.call(60.0))
+	var skel: Skeleton3D = rig["skeleton"]
+	var t: Node3D = case_root.get_node("LookTarget")
+	var cap := {}
+	for i in 31:
+		t.position = at.call(60.0 - 100.0 * i / 30.0)
+		cap = await _capture(skel, rig["body"])
+		if not check(not cap.is_empty(), "frame %d: skeleton_updated came" % i):
+			return
+	var m := _look_measure(skel, cap, rig["effector"], at.call(-40.0))
+	check_le(m["aim_error"], 1.0 * DEG, "the head aims at the target after the sweep (rad)")
+	for k in LOOK_BONES.size():
+		var bone: String = LOOK_BONES[k]
+		check_near(m["turns"][bone], SHARES[k] * 40 * DEG, 2 * DEG, bone + " holds its share (rad)")
+
+
 # A neck whose twist limit (5 degrees) is below its share: the neck stops at its limit, the head
 # takes what the neck withholds and still aims within 1 degree.
 func test_look_at_limits_hold_and_pass_the_rest_on() -> void:
@@ -501,6 +525,13 @@ func test_bake_inspector_action_compiles() -> void:
 		return
 	var constants := Inspector.get_script_constant_map()
 	check_eq(constants.get("BAKE_TEXT"), "Bake animation...", "the bake button's text")
+	# The dialog lists every (player, animation) of the scene.
+	var rig := _bake_rig(1.0)
+	var found: Array = Inspector.animations_in(case_root)
+	check_eq(found.size(), 1, "one animation in the scene")
+	if found.size() == 1:
+		check(found[0][0] == rig["player"] and found[0][1] == &"move", "the player and its animation")
+	check_eq(Inspector.animations_in(null).size(), 0, "no scene: nothing")
 
 
 # ------------------------------------------------------------------ foot placement
