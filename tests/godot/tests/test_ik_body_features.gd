@@ -681,6 +681,26 @@ func test_foot_placement_on_a_step_without_pops() -> void:
 	check(upper != null, "fixture")
 
 
+# A foot the animation lifts (the thigh swung forward) over a 10 cm box: its target stays lifted by
+# the animated height over the box's top, straight above where the animation has it.
+func test_foot_placement_keeps_an_animated_lift() -> void:
+	var rig := _foot_rig()
+	var skel: Skeleton3D = rig["skeleton"]
+	var thigh := skel.find_bone("LeftUpperLeg")
+	skel.set_bone_pose_rotation(thigh, skel.get_bone_rest(thigh).basis.get_rotation_quaternion()
+			* Quaternion(Vector3.RIGHT, 0.5))
+	var animated := skel.get_bone_global_pose(skel.find_bone("LeftFoot")).origin
+	check(animated.y > 0.05, "the animation lifts the foot (%.3f m)" % animated.y)
+	_ground("Box", Vector3(animated.x, 0.1, animated.z), Vector3(0.5, 0.2, 0.5))
+	await physics_frame
+	await physics_frame
+	rig["feet"].place(1.0 / 60.0)
+	var target := (rig["body"].effectors[1] as IKBodyEffector).target_transform
+	check_near(target.origin.y, 0.1 + animated.y, 1e-4, "lifted by the animated height over the box (m)")
+	check_near(Vector2(target.origin.x, target.origin.z).distance_to(Vector2(animated.x, animated.z)), 0.0, 1e-4,
+			"straight above the animated foot (m)")
+
+
 # No ground under the feet (the rays hit nothing): the feet and the hips follow the animation.
 func test_foot_placement_without_ground_follows_the_animation() -> void:
 	var rig := _foot_rig()
