@@ -58,9 +58,13 @@ def bbcode(text, cls, known):
                   lambda m: f"[`{m.group(1)}`](#{m.group(1).lower()})" if m.group(1) in known else f"`{m.group(1)}`",
                   text)
     text = re.sub(r"\[(bool|int|float)\]", r"`\1`", text)
+    text = re.sub(r"\[param ([A-Za-z0-9_]+)\]", r"`\1`", text)
+    # Escaped brackets ([lb], [rb]) become placeholders until the leftover check has run.
+    text = text.replace("[lb]", "\x01").replace("[rb]", "\x02")
     leftover = re.search(r"\[/?[a-z_]+[^\]]*\]", text)
     if leftover:
         raise SystemExit(f"class_reference: {cls}: unsupported BBCode tag {leftover.group(0)!r}")
+    text = text.replace("\x01", "[").replace("\x02", "]")
     for i, b in enumerate(blocks):
         text = text.replace(f"\x00{i}\x00", "\n" + b + "\n")
     return text.strip()

@@ -174,11 +174,11 @@ using SolveFn = SolverStatus (*)(const Chain&, Span<const Goal>, const SolverOpt
 // The solver table (solve.hpp) and the function of each row, in SolverKind order.
 const SolverInfo kSolverTable[] = {
     {SolverKind::kTwoBone, "two_bone", "Two Bone", 2, false, false, false, false, false},
-    {SolverKind::kCCD, "ccd", "Cyclic Coordinate Descent", 0, true, true, true, false, false},
+    {SolverKind::kCCD, "ccd", "Cyclic Coordinate Descent", 0, true, true, true, false, true},
     {SolverKind::kJacobianPinv, "jacobian_pinv", "Jacobian Pseudo-Inverse", 0, true, true, true, true, false},
     {SolverKind::kDLS, "dls", "Damped Least Squares", 0, true, true, true, true, true},
-    {SolverKind::kBFGS, "bfgs", "BFGS", 0, true, true, true, true, false},
-    {SolverKind::kFABRIK, "fabrik", "FABRIK", 0, true, false, true, false, false},
+    {SolverKind::kBFGS, "bfgs", "BFGS", 0, true, true, true, true, true},
+    {SolverKind::kFABRIK, "fabrik", "FABRIK", 0, true, false, true, false, true},
 };
 const SolveFn kSolverFunctions[] = {solve_two_bone, solve_ccd, solve_jacobian_pinv, solve_dls, solve_bfgs, solve_fabrik};
 static_assert(sizeof(kSolverTable) / sizeof(kSolverTable[0]) == kSolverKindCount, "one table row per SolverKind");
@@ -296,6 +296,49 @@ Span<const SolverInfo> solver_table() { return Span<const SolverInfo>(kSolverTab
 
 const SolverInfo& solver_info(SolverKind kind) { return kSolverTable[static_cast<int>(kind)]; }
 
+Message validate_goal(const Goal& g, int i) {
+  if (!(g.weight > 0.0 && g.weight <= kMaxWeight))
+    return Message::format("goal %d: weight must be > 0 and <= %g, got %g", i, kMaxWeight, g.weight);
+  switch (g.kind) {
+    case GoalKind::kPosition:
+      if (!within_magnitude(g.target_position))
+        return Message::format("goal %d: target_position (%g, %g, %g) must be finite, each component within "
+                               "+-%g m", i, g.target_position.x, g.target_position.y, g.target_position.z,
+                               kMaxMagnitude);
+      break;
+    case GoalKind::kOrientation: {
+      const glm::dquat& q = g.target_orientation;
+      // Overflow-safe: a finite quaternion of huge components is a rotation like any other.
+      const double len = so3::scaled_length(q);
+      if (!so3::finite(q) || !(len >= 1e-9))
+        return Message::format("goal %d: target_orientation must be a finite non-zero quaternion", i);
+      break;
+    }
+    case GoalKind::kAim:
+      // Bounded: normalising (1e200, 0, 0) divides by an infinite length and gives the zero vector,
+      // which would read as "aim met".
+      if (!within_magnitude(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+        return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
+                               kMaxMagnitude);
+      if (!within_magnitude(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
+        return Message::format("goal %d: aim_direction must be a non-zero vector, each component within +-%g", i,
+                               kMaxMagnitude);
+      break;
+    case GoalKind::kAimAt:
+      if (!within_magnitude(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
+        return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
+                               kMaxMagnitude);
+      if (!within_magnitude(g.target_position))
+        return Message::format("goal %d: target_position (the point to aim at) (%g, %g, %g) must be finite, each "
+                               "component within +-%g m", i, g.target_position.x, g.target_position.y,
+                               g.target_position.z, kMaxMagnitude);
+      break;
+    default:
+      return Message::format("goal %d: unknown kind", i);
+  }
+  return Message();
+}
+
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                         const Workspace& ws, const Eigen::Ref<const Eigen::VectorXd>& params) {
   if (!chain.valid()) return Message::format("chain is not built (0 joints or a failed build)");
@@ -316,48 +359,10 @@ Message validate_inputs(const Chain& chain, Span<const Goal> goals, const Solver
                              kMaxMagnitude);
   }
   for (int i = 0; i < goals.size; ++i) {
-    const Goal& g = goals[i];
-    if (!(g.weight > 0.0 && g.weight <= kMaxWeight))
-      return Message::format("goal %d: weight must be > 0 and <= %g, got %g", i, kMaxWeight, g.weight);
-    if (g.effector < 0 || g.effector > chain.joint_count())
-      return Message::format("goal %d: effector must be in 0..%d, got %d", i, chain.joint_count(), g.effector);
-    switch (g.kind) {
-      case GoalKind::kPosition:
-        if (!within_magnitude(g.target_position))
-          return Message::format("goal %d: target_position (%g, %g, %g) must be finite, each component within "
-                                 "+-%g m", i, g.target_position.x, g.target_position.y, g.target_position.z,
-                                 kMaxMagnitude);
-        break;
-      case GoalKind::kOrientation: {
-        const glm::dquat& q = g.target_orientation;
-        // Overflow-safe: a finite quaternion of huge components is a rotation like any other.
-        const double len = so3::scaled_length(q);
-        if (!so3::finite(q) || !(len >= 1e-9))
-          return Message::format("goal %d: target_orientation must be a finite non-zero quaternion", i);
-        break;
-      }
-      case GoalKind::kAim:
-        // Bounded: normalising (1e200, 0, 0) divides by an infinite length and gives the zero vector,
-        // which would read as "aim met".
-        if (!within_magnitude(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
-          return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
-                                 kMaxMagnitude);
-        if (!within_magnitude(g.aim_direction) || glm::length(g.aim_direction) < 1e-9)
-          return Message::format("goal %d: aim_direction must be a non-zero vector, each component within +-%g", i,
-                                 kMaxMagnitude);
-        break;
-      case GoalKind::kAimAt:
-        if (!within_magnitude(g.aim_axis) || glm::length(g.aim_axis) < 1e-9)
-          return Message::format("goal %d: aim_axis must be a non-zero vector, each component within +-%g", i,
-                                 kMaxMagnitude);
-        if (!within_magnitude(g.target_position))
-          return Message::format("goal %d: target_position (the point to aim at) (%g, %g, %g) must be finite, each "
-                                 "component within +-%g m", i, g.target_position.x, g.target_position.y,
-                                 g.target_position.z, kMaxMagnitude);
-        break;
-      default:
-        return Message::format("goal %d: unknown kind", i);
-    }
+    Message goal = validate_goal(goals[i], i);
+    if (!goal.empty()) return goal;
+    if (goals[i].effector < 0 || goals[i].effector > chain.joint_count())
+      return Message::format("goal %d: effector must be in 0..%d, got %d", i, chain.joint_count(), goals[i].effector);
   }
   return Message();
 }

@@ -30,10 +30,16 @@ struct SolverInfo {
   bool intermediate_orientation_goals;  // ... on effectors other than the tip too (FABRIK: tip only)
   bool several_goals;        // takes more than one goal
   bool prismatic_joints;     // takes chains with prismatic joints
-  bool trees;                // solves branched trees in one coupled problem, with priority levels (solve_tree)
+  bool trees;                // solves branched trees in one coupled problem (solve_tree); strict priority
+                             // levels: DLS only, the others weigh levels (docs/full-body.md)
 };
 Span<const SolverInfo> solver_table();
 const SolverInfo& solver_info(SolverKind kind);  // kind must be one of the enum's values
+
+// One goal's own fields (weight, kind, target, axes; `index` names it in the message): the per-goal
+// check solve() and solve_tree() share. The effector's range is the caller's (chains and trees
+// count effectors differently).
+Message validate_goal(const Goal& goal, int index);
 
 // The checks solve() makes before running a solver; empty message when all is well.
 Message validate_inputs(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,

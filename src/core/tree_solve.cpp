@@ -40,12 +40,23 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   active_dofs.assign(dofs, 0);
   dof_column.assign(dofs, -1);
   dof_joint.assign(dofs, -1);
+  dof_square.setZero(dofs, dofs);
+  gradient.setZero(dofs);
+  gradient_trial.setZero(dofs);
+  gradient_kept.setZero(dofs);
+  params_kept.setZero(dofs);
+  const int points = joints + tree.effector_count();
+  points_a.assign(points, glm::dvec3(0.0));
+  points_b.assign(points, glm::dvec3(0.0));
+  points_c.assign(points, glm::dvec3(0.0));
+  point_weight.assign(points, 0.0);
   for (int j = 0; j < joints; ++j)
     for (int d = 0; d < tree.dof_count_of(j); ++d) dof_joint[tree.dof_offset(j) + d] = j;
 }
 
 bool TreeWorkspace::fits(const Tree& tree, int goal_count) const {
-  return joints == tree.joint_count() && dofs == tree.dof_count() && goal_count <= max_goals;
+  return joints == tree.joint_count() && dofs == tree.dof_count() && goal_count <= max_goals &&
+         points_a.size() == static_cast<size_t>(joints + tree.effector_count());
 }
 
 void tree_forward_kinematics(const Tree& tree, const double* params, TreeWorkspace& ws) {
@@ -80,12 +91,12 @@ glm::dquat tree_effector_orientation(const Tree& tree, const TreeWorkspace& ws, 
   return ws.joint_orientations[e.joint] * e.rotation;
 }
 
-namespace {
-
-double on_point_radius(const Tree& tree, const Goal& g) {
+double tree_aim_at_on_point(const Tree& tree, const Goal& g) {
   return g.kind == GoalKind::kAimAt ? kAimAtOnPoint * (tree.total_length() + glm::length(g.target_position)) : 0.0;
 }
 
+namespace {
+const auto on_point_radius = tree_aim_at_on_point;
 }  // namespace
 
 glm::dvec3 tree_goal_error(const Tree& tree, const TreeWorkspace& ws, const Goal& g) {
@@ -186,14 +197,21 @@ bool within_tree_limits(const Tree& tree, const double* params, double slack) {
   return true;
 }
 
+SolverKind auto_tree_solver(const Tree&, const TreeProblem&) { return SolverKind::kDLS; }
+
 Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProblem& problem,
                              const SolverOptions& options, const TreeWorkspace& ws,
                              const Eigen::Ref<const Eigen::VectorXd>& params) {
   if (!tree.valid()) return Message::format("tree is not built (TreeBuilder::build failed or was not called)");
   const int solver = static_cast<int>(kind);
   if (solver < 0 || solver >= kSolverKindCount) return Message::format("unknown solver kind %d", solver);
-  if (!solver_info(kind).trees)
+  const SolverInfo& info = solver_info(kind);
+  if (!info.trees)
     return Message::format("solver %s does not solve trees; use %s", to_string(kind), to_string(SolverKind::kDLS));
+  if (!info.prismatic_joints)
+    for (int j = 0; j < tree.joint_count(); ++j)
+      if (tree.joint_type(j) == JointType::kPrismatic)
+        return Message::format("%s turns joints only; joint %d is prismatic: use dls or bfgs", info.id, j);
   Message m = options.validate();
   if (!m.empty()) return m;
   if (options.max_restarts > 0)
@@ -219,27 +237,8 @@ Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProble
                              kMaxPriorityLevels);
     if (g.effector < 0 || g.effector >= tree.effector_count())
       return Message::format("goal %d: effector (%d) must be in [0, %d)", i, g.effector, tree.effector_count());
-    if (!(g.weight > 0.0 && g.weight <= kMaxWeight))
-      return Message::format("goal %d: weight must be in (0, %g], got %g", i, kMaxWeight, g.weight);
-    const int k = static_cast<int>(g.kind);
-    if (k < 0 || k > static_cast<int>(GoalKind::kAimAt)) return Message::format("goal %d: unknown kind %d", i, k);
-    if (!within_magnitude(g.target_position))
-      return Message::format("goal %d: target_position must be finite, within +-%g m", i, kMaxMagnitude);
-    if (g.kind == GoalKind::kOrientation) {
-      const double len = so3::scaled_length(g.target_orientation);
-      if (!(len > 1e-9) || !std::isfinite(len))
-        return Message::format("goal %d: target_orientation must be a finite non-zero quaternion", i);
-    }
-    if (g.kind == GoalKind::kAim || g.kind == GoalKind::kAimAt) {
-      const double len = so3::scaled_length(g.aim_axis);
-      if (!(len > 1e-9) || !std::isfinite(len))
-        return Message::format("goal %d: aim_axis must be a finite non-zero vector", i);
-    }
-    if (g.kind == GoalKind::kAim) {
-      const double len = so3::scaled_length(g.aim_direction);
-      if (!(len > 1e-9) || !std::isfinite(len))
-        return Message::format("goal %d: aim_direction must be a finite non-zero vector", i);
-    }
+    Message goal = validate_goal(g, i);
+    if (!goal.empty()) return goal;
   }
   const int n = tree.dof_count();
   if (!problem.posture.empty() && problem.posture.size != n)
@@ -259,6 +258,22 @@ Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProble
       return Message::format("posture_stiffness[%d] must be in [0, 1], got %g", i, problem.posture_stiffness[i]);
   return Message();
 }
+
+namespace {
+
+// The tree solvers, by kind (the rows of the solver table whose `trees` column is true; the
+// validation refused every other kind by name).
+TreeSolverStatus run_tree_solver(SolverKind kind, const Tree& tree, const TreeProblem& problem,
+                                 const SolverOptions& options, TreeWorkspace& ws, double* params) {
+  switch (kind) {
+    case SolverKind::kBFGS: return solve_tree_bfgs(tree, problem, options, ws, params);
+    case SolverKind::kCCD: return solve_tree_ccd(tree, problem, options, ws, params);
+    case SolverKind::kFABRIK: return solve_tree_fabrik(tree, problem, options, ws, params);
+    default: return solve_tree_dls(tree, problem, options, ws, params);
+  }
+}
+
+}  // namespace
 
 TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem& problem,
                            const SolverOptions& options, TreeWorkspace& ws, Eigen::Ref<Eigen::VectorXd> params) {
@@ -291,7 +306,7 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
 
   TreeSolverStatus status;
   status.reason = TerminationReason::kConverged;
-  if (!start_errors.all_met() || !problem.posture.empty()) status = solve_tree_dls(tree, problem, options, ws, params.data());
+  if (!start_errors.all_met() || !problem.posture.empty()) status = run_tree_solver(kind, tree, problem, options, ws, params.data());
   summary.iterations = status.iterations;
   summary.escapes = status.escapes;
   summary.reason = status.reason;

@@ -7,6 +7,9 @@
 // itself. Within a level, goal weights trade goals off as in a chain solve. Below every level an
 // optional posture task pulls the redundant DOFs toward a preferred pose. Joint limits hold at
 // every level (the active set of the Jacobian solvers).
+// That is the tree DLS (SolverKind::kDLS). BFGS, CCD and FABRIK also take trees (the solver table's
+// `trees` column) but have no null space: they weigh each level 1e3 times the one below it
+// (solvers/tree_common.hpp), and CCD and FABRIK ignore the posture. auto_tree_solver() picks.
 #pragma once
 #include <array>
 #include <vector>
@@ -87,6 +90,12 @@ struct TreeWorkspace {
   std::vector<int> active_dofs;   // the DOF of each column
   std::vector<int> dof_column;    // dofs: the column of each DOF, or -1
   std::vector<int> dof_joint;     // dofs: the joint each DOF belongs to (-1: a floating root's translation)
+
+  // The weighted-sum solvers (BFGS, CCD, FABRIK; solvers/tree_common.hpp).
+  Eigen::MatrixXd dof_square;     // dofs x dofs: BFGS's inverse Hessian (lower triangle)
+  Eigen::VectorXd gradient, gradient_trial, gradient_kept, params_kept;  // dofs
+  std::vector<glm::dvec3> points_a, points_b, points_c;  // joints + effectors: FABRIK's points
+  std::vector<double> point_weight;                      // joints + effectors
 };
 
 // Moves `params` (tree.dof_count() entries) toward the goals. On kInvalidInput params are untouched
@@ -95,6 +104,14 @@ struct TreeWorkspace {
 TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem& problem,
                            const SolverOptions& options, TreeWorkspace& workspace,
                            Eigen::Ref<Eigen::VectorXd> params);
+
+// Auto for trees: the solver to hand solve_tree() for this problem (what an engine layer's "Auto"
+// resolves to). The rule (docs/full-body.md, "Which solver"): DLS whenever the problem uses more
+// than one priority level or a posture (the only solver with strict priorities and a null-space
+// posture); with one level and no posture too, since no other tree solver converges more often on
+// the test humanoid (tree_solvers_test.cpp) and DLS is the fastest and most accurate on the body
+// benchmark.
+SolverKind auto_tree_solver(const Tree& tree, const TreeProblem& problem);
 
 // The checks solve_tree() makes first; empty when all is well.
 Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProblem& problem,

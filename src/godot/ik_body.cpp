@@ -416,6 +416,48 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
                                                             "use_target_transform). It is skipped until then.",
                           false});
     Slot s;
+    if (e->is_look_at()) {
+      s.look = true;
+      if (!(e->get_rotation_weight() > 0.0))
+        problems.push_back({"effectors", "IKBody: " + where + ": look_at aims the bone with rotation_weight, which is "
+                                                              "0; set rotation_weight above 0.",
+                            false});
+      const gdx::Array shares = e->get_look_shares();
+      // How many bones the look can spread over: this bone and its ancestors up to root_bone.
+      int chain = 0;
+      for (int b = bone, steps = 0; b >= 0 && steps <= bone_count; b = parents[size_t(b)], ++steps) {
+        ++chain;
+        if (b == root) break;
+      }
+      bool bad = false;
+      for (int64_t k = 0; k < shares.size(); ++k) {
+        double v = 0.0;
+        if (!gdx::variant_to(shares.at(k), v) || !std::isfinite(v) || v < 0.0) {
+          v = 0.0;
+          bad = true;
+        }
+        if (k < chain) s.look_share_list.push_back(v);
+      }
+      if (bad)
+        problems.push_back({"effectors", "IKBody: " + where + ": look_shares holds a negative, non-finite or "
+                                                              "non-number entry; it is used as 0. Make every share a "
+                                                              "number >= 0.",
+                            false});
+      if (shares.size() > chain)
+        problems.push_back({"effectors", "IKBody: " + where + ": look_shares has " + std::to_string(shares.size()) +
+                                             " entries, but only " + std::to_string(chain) +
+                                             " bones lead from it up to root_bone; the extra shares are ignored. "
+                                             "Remove them.",
+                            false});
+      double sum = 0.0;
+      for (double v : s.look_share_list) sum += v;
+      if (!s.look_share_list.empty() && !(sum > 0.0)) {
+        problems.push_back({"effectors", "IKBody: " + where + ": look_shares are all 0; the solver spreads the "
+                                                              "look alone. Give the bones that turn a share above 0.",
+                            false});
+        s.look_share_list.clear();
+      }
+    }
     s.effector = e;
     s.skeleton_bone = bone;
     s.index = int(i);
@@ -588,6 +630,19 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
       slot.pole_end = slot.pole_end < 0 ? -1 : mapping_.bone_of(slot.skeleton_bone);
     for (Slot& slot : slots_)
       if (slot.pole_end >= 0 && mapping_.pole_upper_bone(slot.pole_end) < 0) slot.pole_end = -1;
+    // A look's bones: its bone and the ancestors its shares name, root-most first.
+    for (Slot& slot : slots_) {
+      slot.look_bones.clear();
+      slot.look_shares.clear();
+      if (!slot.look || slot.look_share_list.empty()) continue;
+      int b = mapping_.bone_of(slot.skeleton_bone);
+      for (size_t k = 0; k < slot.look_share_list.size() && b >= 0; ++k, b = mapping_.tree().parent(b)) {
+        slot.look_bones.insert(slot.look_bones.begin(), b);
+        slot.look_shares.insert(slot.look_shares.begin(), slot.look_share_list[k]);
+      }
+    }
+    look_goals_.assign(slots_.size(), 0);
+    look_goals_.clear();
     have_last_ = false;
     body_ok_ = true;
   } else {
@@ -696,15 +751,12 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     }
     mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, params_.data(), workspace_);
   }
-  // The posture task keeps the freedom the effectors leave where the start pose has it (the
-  // animation, or the last solution while the animation stands still), poles applied: the
-  // smallest correction, and no drift between frames.
-  posture_ = params_;
 
   // The animated effector poses: what an effector with influence < 1 blends from.
   const Tree& tree = mapping_.tree();
   tree_forward_kinematics(tree, anim_params_.data(), workspace_);
   int goal_count = 0;
+  look_goals_.clear();  // capacity: one per slot (rebuild), so no allocation
   std::fill(effector_position_error_.begin(), effector_position_error_.end(), kNaN);
   std::fill(effector_rotation_error_.begin(), effector_rotation_error_.end(), kNaN);
   for (int s = 0; s < int(slots_.size()); ++s) {
@@ -734,6 +786,39 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     const double influence = e.get_influence();
     const int level =
         int(std::clamp<int64_t>(e.get_priority(), IKBodyEffector::kMinPriority, IKBodyEffector::kMaxPriority));
+    if (slot.look) {
+      if (!(wr > 0.0)) continue;  // a configuration warning says so
+      // Aim the bone's look_axis at the target's origin; with influence < 1 the aimed point turns
+      // only that share of the way from where the animation looks.
+      const glm::dvec3 origin = tree_effector_position(tree, workspace_, slot.core_effector);
+      const glm::dvec3 target = mapping_.point_in_tree(base.point_in_base(glm::dvec3(target_m[3])));
+      if (!within_magnitude(target)) {
+        report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
+                       ": the target is absurdly far (beyond 1e50 m); the effector follows the animation.");
+        continue;
+      }
+      const glm::dvec3 axis = glm::normalize(glm::dvec3(gdx::to_glm(e.get_look_axis())));
+      glm::dvec3 point = target;
+      if (influence < 1.0) {
+        const glm::dvec3 facing = tree_effector_orientation(tree, workspace_, slot.core_effector) * axis;
+        const glm::dvec3 to_target = target - origin;
+        const double distance = glm::length(to_target);
+        if (distance > 1e-9) {
+          const glm::dvec3 wanted = to_target / distance;
+          glm::dvec3 about = glm::cross(facing, wanted);
+          const double sine = glm::length(about);
+          const double angle = std::atan2(sine, glm::dot(facing, wanted));
+          if (sine > 1e-12) point = origin + glm::angleAxis(influence * angle, about / sine) * facing * distance;
+        }
+      }
+      const double length = std::max(tree.reach_from_root(slot.core_effector), 1e-3);
+      goals_[size_t(goal_count)] = {Goal::aim_at(point, axis, slot.core_effector, wr * length * length), level};
+      goal_slot_[size_t(goal_count)] = s;
+      goal_rotation_[size_t(goal_count)] = 1;
+      if (!slot.look_bones.empty()) look_goals_.push_back(goal_count);
+      ++goal_count;
+      continue;
+    }
     if (wp > 0.0) {
       const glm::dvec3 animated = tree_effector_position(tree, workspace_, slot.core_effector);
       const glm::dvec3 target = mapping_.point_in_tree(base.point_in_base(glm::dvec3(target_m[3])));
@@ -764,6 +849,19 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     set_invalid_result("IKBody: no effector has a usable target this frame; the animated pose is kept.");
     return false;
   }
+  // Looks with shares: the start pose turned toward each look, a set share per bone (the solver
+  // then only corrects what the other effectors disturb).
+  for (int g : look_goals_) {
+    const Slot& slot = slots_[size_t(goal_slot_[size_t(g)])];
+    const Goal& goal = goals_[size_t(g)].goal;
+    mapping_.spread_look(Span<const int>(slot.look_bones.data(), int(slot.look_bones.size())),
+                         Span<const double>(slot.look_shares.data(), int(slot.look_shares.size())), goal.aim_axis,
+                         goal.target_position, params_.data(), workspace_);
+  }
+  // The posture task keeps the freedom the effectors leave where the start pose has it (the
+  // animation, or the last solution while the animation stands still), poles and looks applied:
+  // the smallest correction, and no drift between frames.
+  posture_ = params_;
 
   TreeProblem problem;
   problem.goals = Span<const TreeGoal>(goals_.data(), goal_count);
@@ -875,6 +973,12 @@ bool IKBody::setup_humanoid() {
     e->set_priority(spec.priority);
     e->set_position_weight(spec.position_weight);
     e->set_rotation_weight(spec.rotation_weight);
+    if (std::string_view(spec.bone) == "Head") {
+      // Ready to look (turn on look_at): the turn spread over head, neck, upper chest, chest, spine.
+      gdx::Array shares;
+      for (double share : {0.35, 0.25, 0.15, 0.15, 0.1}) shares.push_back(gdx::Variant(share));
+      e->set_look_shares(shares);
+    }
     effectors.push_back(held);
   }
 

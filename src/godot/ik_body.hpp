@@ -103,6 +103,12 @@ class IKBody {
     int skeleton_bone = -1;
     int pole_end = -1;      // with a usable pole_target: the mapping bone the limb ends at
     std::string bone;
+    bool look = false;  // look mode: an aim goal (kAimAt) at the target's origin
+    // With look_shares: the bones that share the turn (mapping indices, root-most first, the
+    // effector's bone last) and their shares (same order). Empty: the solver alone spreads it.
+    std::vector<double> look_share_list;  // as configured: this bone first (resolved at rebuild)
+    std::vector<int> look_bones;
+    std::vector<double> look_shares;
   };
   // The one configuration pass the warnings and the rebuild share: problems (each with its fix),
   // and, when asked, the tree description and the effector slots (skeleton bone indices).
@@ -152,6 +158,7 @@ class IKBody {
   std::vector<TreeGoal> goals_;
   std::vector<int> goal_slot_;       // per goal: its slot
   std::vector<char> goal_rotation_;  // per goal: the orientation goal (else position)
+  std::vector<int> look_goals_;      // per frame: the goals whose look is spread (capacity: slots)
   TreeWorkspace workspace_;
   SolverOptions options_;
   bool have_last_ = false;

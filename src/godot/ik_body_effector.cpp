@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "binding/log.hpp"
 #include "ik_chain_joint.hpp"
 #include "property_report.hpp"
 
@@ -44,6 +45,12 @@ void IKBodyEffector::register_class(gdx::ClassRecord& record) {
   b.method("get_influence", &IKBodyEffector::get_influence);
   b.method("set_pole_target", &IKBodyEffector::set_pole_target, {"path"});
   b.method("get_pole_target", &IKBodyEffector::get_pole_target);
+  b.method("set_look_at", &IKBodyEffector::set_look_at, {"enabled"});
+  b.method("is_look_at", &IKBodyEffector::is_look_at);
+  b.method("set_look_axis", &IKBodyEffector::set_look_axis, {"axis"});
+  b.method("get_look_axis", &IKBodyEffector::get_look_axis);
+  b.method("set_look_shares", &IKBodyEffector::set_look_shares, {"shares"});
+  b.method("get_look_shares", &IKBodyEffector::get_look_shares);
 
   b.property({"bone_name", GDEXTENSION_VARIANT_TYPE_STRING}, "set_bone_name", "get_bone_name");
   b.property({"enabled", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_enabled", "is_enabled");
@@ -65,6 +72,11 @@ void IKBodyEffector::register_class(gdx::ClassRecord& record) {
              "get_priority");
   b.property({"influence", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0,1,0.01"}, "set_influence",
              "get_influence");
+  b.group("Look", "look_");
+  b.property({"look_at", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_look_at", "is_look_at");
+  b.property({"look_axis", GDEXTENSION_VARIANT_TYPE_VECTOR3}, "set_look_axis", "get_look_axis");
+  b.property({"look_shares", GDEXTENSION_VARIANT_TYPE_ARRAY, hint::PROPERTY_HINT_TYPE_STRING, "3/1:0,1,0.01"},
+             "set_look_shares", "get_look_shares");
 }
 
 IKBodyEffector* IKBodyEffector::from_object(gdx::ObjectPtr object) {
@@ -117,6 +129,25 @@ void IKBodyEffector::set_influence(double influence) {
 void IKBodyEffector::set_pole_target(const gdx::NodePath& path) {
   pole_target_ = path;
   changed(true);  // which limbs take a pole is resolved at the rebuild
+}
+void IKBodyEffector::set_look_at(bool on) {
+  if (on == look_at_) return;
+  look_at_ = on;
+  changed(true);  // the look's bones are resolved at the rebuild
+}
+void IKBodyEffector::set_look_axis(const gdx::Vector3& axis) {
+  // Read every frame; a zero or non-finite axis is refused (the previous one stays).
+  const double length = std::sqrt(double(axis.x) * axis.x + double(axis.y) * axis.y + double(axis.z) * axis.z);
+  if (!(length > 1e-6) || !std::isfinite(length)) {
+    gdx::print_error("IKBodyEffector.look_axis must be a finite non-zero vector; the previous axis is kept.",
+                     "IKBodyEffector::set_look_axis", __FILE__, __LINE__);
+    return;
+  }
+  look_axis_ = axis;
+}
+void IKBodyEffector::set_look_shares(const gdx::Array& shares) {
+  look_shares_ = shares;
+  changed(true);  // the look's bones are resolved at the rebuild
 }
 
 }  // namespace ikchain::godot

@@ -45,6 +45,15 @@ class IKBodyEffector {
   double get_influence() const { return influence_; }
   void set_pole_target(const gdx::NodePath& path);
   gdx::NodePath get_pole_target() const { return pole_target_; }
+  // Look mode: the bone's look_axis (its own frame) aims at the target's origin (the core's kAimAt
+  // goal, weighted by rotation_weight) instead of reaching it; look_shares spread the turn over the
+  // bone and its ancestors (index 0 = this bone, 1 = its parent, ...).
+  void set_look_at(bool on);
+  bool is_look_at() const { return look_at_; }
+  void set_look_axis(const gdx::Vector3& axis);
+  gdx::Vector3 get_look_axis() const { return look_axis_; }
+  void set_look_shares(const gdx::Array& shares);
+  gdx::Array get_look_shares() const { return look_shares_; }
 
   gdx::ObjectPtr owner() const { return owner_; }
 
@@ -62,6 +71,9 @@ class IKBodyEffector {
   int64_t priority_ = 1;
   double influence_ = 1.0;
   gdx::NodePath pole_target_;
+  bool look_at_ = false;
+  gdx::Vector3 look_axis_{0.0f, 0.0f, 1.0f};  // +Z: a Godot humanoid's forward
+  gdx::Array look_shares_;
 };
 
 }  // namespace ikchain::godot

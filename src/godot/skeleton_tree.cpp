@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/kinematics.hpp"
 #include "core/so3.hpp"
 
 namespace ikchain::godot {
@@ -269,6 +270,66 @@ bool SkeletonTree::swivel_toward_pole(int end, const glm::dvec3& pole_in_tree, d
   p[1] = r.y;
   p[2] = r.z;
   if (tree_.has_limits(upper)) project_joint_params(JointType::kBall, tree_.limits(upper), p);
+  return true;
+}
+
+bool SkeletonTree::spread_look(Span<const int> bones, Span<const double> shares, const glm::dvec3& aim_axis,
+                               const glm::dvec3& target_in_tree, double* params, TreeWorkspace& ws) const {
+  const int count = bones.size;
+  if (!valid_ || count == 0 || shares.size != count || !so3::finite(target_in_tree)) return false;
+  const double axis_length = glm::length(aim_axis);
+  if (!(axis_length > 1e-12) || !std::isfinite(axis_length)) return false;
+  for (int k = 0; k < count; ++k)
+    if (bones[k] < 0 || bones[k] >= bone_count()) return false;
+  const glm::dvec3 axis_local = aim_axis / axis_length;
+  const int end = bones[count - 1];
+  const double on_point = kAimAtOnPoint * (tree_.total_length() + glm::length(target_in_tree));
+  double shares_left = 0.0;
+  for (int k = 0; k < count; ++k) shares_left += std::max(shares[k], 0.0);
+  for (int k = 0; k < count; ++k) {
+    const double share = std::max(shares[k], 0.0);
+    const double fraction = k == count - 1 ? 1.0 : (shares_left > 0.0 ? share / shares_left : 0.0);
+    shares_left -= share;
+    if (!(fraction > 0.0)) continue;
+    tree_forward_kinematics(tree_, params, ws);
+    const glm::dvec3 facing = ws.joint_orientations[size_t(end)] * axis_local;
+    glm::dvec3 wanted = target_in_tree - ws.joint_origins[size_t(end)];
+    const double distance = glm::length(wanted);
+    // On the point (as the core's aim goal measures it): no direction to look along, only rounding.
+    if (!(distance > on_point)) return k > 0;
+    wanted /= distance;
+    glm::dvec3 about = glm::cross(facing, wanted);
+    const double sine = glm::length(about);
+    const double angle = std::atan2(sine, glm::dot(facing, wanted));
+    if (!(angle > 1e-12)) return true;
+    if (sine > 1e-12) {
+      about /= sine;
+    } else {  // looking straight away: any axis across the facing one
+      about = glm::cross(facing, std::abs(facing.x) < 0.9 ? glm::dvec3(1.0, 0.0, 0.0) : glm::dvec3(0.0, 1.0, 0.0));
+      about = glm::normalize(about);
+    }
+    // Bone j's frame turned about `about` in base space: Q' = G Q, so its motion becomes
+    // R' = conj(pre) G Q (Q = pre R), as in swivel_toward_pole.
+    const int j = bones[k];
+    const glm::dquat turned = glm::normalize(glm::conjugate(ws.joint_pre_rotations[size_t(j)]) *
+                                             glm::angleAxis(fraction * angle, about) *
+                                             ws.joint_orientations[size_t(j)]);
+    double* p = params + tree_.dof_offset(j);
+    if (tree_.joint_type(j) == JointType::kHinge) {
+      // The hinge keeps the part of the turn about its axis (swing-twist decomposition).
+      const glm::dvec3 h = tree_.axis(j);
+      p[0] = 2.0 * std::atan2(glm::dot(glm::dvec3(turned.x, turned.y, turned.z), h), turned.w);
+      if (p[0] > so3::kPi) p[0] -= 2.0 * so3::kPi;
+      if (p[0] < -so3::kPi) p[0] += 2.0 * so3::kPi;
+      if (tree_.has_limits(j)) project_joint_params(JointType::kHinge, tree_.limits(j), p);
+    } else {
+      const glm::dvec3 r = so3::log(turned);
+      p[0] = r.x;
+      p[1] = r.y;
+      p[2] = r.z;
+      if (tree_.has_limits(j)) project_joint_params(JointType::kBall, tree_.limits(j), p);
+    }
+  }
   return true;
 }
 

@@ -111,6 +111,21 @@ class SkeletonTree {
   // `ws` is scratch for the forward kinematics (sized for the tree). Allocates nothing.
   bool swivel_toward_pole(int end, const glm::dvec3& pole_in_tree, double* params, TreeWorkspace& ws) const;
 
+  // ---- look-at spread ----
+
+  // Turns `bones` (mapping indices, root-most first, each an ancestor of the next; the last is the
+  // bone whose `aim_axis` (its own frame) should point at `target_in_tree`) so that the turn is
+  // shared: when its turn comes, bone k takes shares[k] / (shares[k] + ... + shares[last]) of the
+  // angle still left between the axis and the target, about the axis that turns one onto the other
+  // (the shortest turn, in base space). Each joint's limits hold; what a limit withholds passes on
+  // to the bones after it, and the last bone takes what is left, so the look is exact unless the
+  // last joint's limits stop it. Shares need not sum to 1; a share <= 0 keeps its bone. False (and
+  // params untouched) when the target sits on the bone's origin (within the core's kAimAtOnPoint
+  // radius: the direction would be rounding) or the inputs are not finite.
+  // `ws` is scratch for the forward kinematics (sized for the tree). Allocates nothing.
+  bool spread_look(Span<const int> bones, Span<const double> shares, const glm::dvec3& aim_axis,
+                   const glm::dvec3& target_in_tree, double* params, TreeWorkspace& ws) const;
+
   // A bone's non-uniform scale: the rigid tree only approximates it (a configuration warning).
   Message scale_warning() const;
 

@@ -16,18 +16,7 @@ namespace {
 
 using test::Humanoid;
 
-// 6-D goals for `effectors` at the pose `q` of `tree` (position, and orientation weighted by 1 m^2).
-std::vector<TreeGoal> pose_goals_at(const Tree& tree, const Eigen::VectorXd& q, std::initializer_list<int> effectors,
-                                    int level, bool orientation = true) {
-  TreeWorkspace ws(tree, 1);
-  tree_forward_kinematics(tree, q.data(), ws);
-  std::vector<TreeGoal> goals;
-  for (int e : effectors) {
-    goals.push_back({Goal::position(tree_effector_position(tree, ws, e), e), level});
-    if (orientation) goals.push_back({Goal::orientation(tree_effector_orientation(tree, ws, e), e), level});
-  }
-  return goals;
-}
+using test::pose_goals_at;
 
 // The errors solve_tree reports are the pose's: measured again from the params it returned.
 void expect_result_is_the_pose(const Tree& tree, const TreeProblem& p, const TreeSolveResult& r,

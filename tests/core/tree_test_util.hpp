@@ -1,6 +1,7 @@
 // Trees for the tree tests: a small humanoid, random poses within the limits, and an independent
 // forward kinematics with 4x4 matrices (the oracle).
 #pragma once
+#include <initializer_list>
 #include <random>
 #include <vector>
 
@@ -112,6 +113,19 @@ inline Eigen::VectorXd random_tree_params(const Tree& tree, std::mt19937& rng, d
     for (int i = 0; i < 3; ++i) q[i] = max_translation * u(rng);
   project_tree_to_limits(tree, q.data());
   return q;
+}
+
+// 6-D goals for `effectors` at the pose `q` of `tree` (position, and orientation weighted by 1 m^2).
+inline std::vector<TreeGoal> pose_goals_at(const Tree& tree, const Eigen::VectorXd& q,
+                                           std::initializer_list<int> effectors, int level, bool orientation = true) {
+  TreeWorkspace ws(tree, 1);
+  tree_forward_kinematics(tree, q.data(), ws);
+  std::vector<TreeGoal> goals;
+  for (int e : effectors) {
+    goals.push_back({Goal::position(tree_effector_position(tree, ws, e), e), level});
+    if (orientation) goals.push_back({Goal::orientation(tree_effector_orientation(tree, ws, e), e), level});
+  }
+  return goals;
 }
 
 // Joint frames by 4x4 matrices, written apart from tree_forward_kinematics (the oracle).

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -406,6 +407,85 @@ TEST(SkeletonTree, PoleLeavesStraightLimbsAndShortLimbsAlone) {
   EXPECT_EQ(map.pole_upper_bone(map.bone_of(find(s, "Spine"))), -1);  // one bone below the root: no limb
 }
 
+// ---------------------------------------------------------------- look-at spread
+
+// Hips -> Spine -> Head, the head's +Z looking at a point to the side: the head aims exactly, the
+// spine and the head take their shares of the turn (about the vertical here, so the shares add up).
+TEST(SkeletonTree, SpreadLookSharesTheTurnAndAimsExactly) {
+  Skel s = body();
+  std::vector<int> order;
+  SkeletonTree map;
+  ASSERT_TRUE(map.build(describe(s, "Hips", {"Head"}, false, &order)).empty());
+  const int spine = map.bone_of(find(s, "Spine")), head = map.bone_of(find(s, "Head"));
+  std::vector<double> params(size_t(map.tree().dof_count()), 0.0);
+  map.params_from_pose(params.data());
+  const std::vector<double> start = params;
+  TreeWorkspace ws(map.tree(), 4);
+  tree_forward_kinematics(map.tree(), params.data(), ws);
+  const glm::dvec3 axis_local = glm::conjugate(ws.joint_orientations[size_t(head)]) * glm::dvec3(0, 0, 1);
+  const glm::dvec3 head_at = ws.joint_origins[size_t(head)];
+  const glm::dvec3 target = head_at + 3.0 * glm::dvec3(std::sin(1.0), 0.0, std::cos(1.0));  // 1 rad to the side
+  const int bones[] = {spine, head};
+  const double shares[] = {0.25, 0.75};
+  ASSERT_TRUE(map.spread_look(Span<const int>(bones, 2), Span<const double>(shares, 2), axis_local, target,
+                              params.data(), ws));
+  tree_forward_kinematics(map.tree(), params.data(), ws);
+  const glm::dvec3 facing = ws.joint_orientations[size_t(head)] * axis_local;
+  EXPECT_LT(std::acos(std::min(1.0, glm::dot(facing, glm::normalize(target - ws.joint_origins[size_t(head)])))),
+            1e-6);
+  auto turned = [&](int bone) {
+    const double* p = params.data() + map.tree().dof_offset(bone);
+    const double* q = start.data() + map.tree().dof_offset(bone);
+    return angle_between(so3::exp(glm::dvec3(p[0], p[1], p[2])), so3::exp(glm::dvec3(q[0], q[1], q[2])));
+  };
+  // The head origin moves a little as the spine turns (it sits 0.5 m up a tilted spine): a degree.
+  EXPECT_NEAR(turned(spine), 0.25, 0.02);
+  EXPECT_NEAR(turned(head), 0.75, 0.02);
+}
+
+// A share withheld by a joint's limit passes on: a spine whose twist is held to 0.05 rad turns no
+// further, and the head still aims. Bad inputs leave params untouched.
+TEST(SkeletonTree, SpreadLookKeepsLimitsAndRefusesBadInputs) {
+  Skel s = body();
+  std::vector<int> order;
+  SkeletonTree map;
+  auto joint_of = [](const std::string& name) {
+    JointSettings j;
+    if (name == "Spine") {
+      j.twist_limit_enabled = true;
+      j.twist_min = -0.05;
+      j.twist_max = 0.05;
+    }
+    return j;
+  };
+  ASSERT_TRUE(map.build(describe(s, "Hips", {"Head"}, false, &order, +joint_of)).empty());
+  const int spine = map.bone_of(find(s, "Spine")), head = map.bone_of(find(s, "Head"));
+  std::vector<double> params(size_t(map.tree().dof_count()), 0.0);
+  map.params_from_pose(params.data());
+  TreeWorkspace ws(map.tree(), 4);
+  tree_forward_kinematics(map.tree(), params.data(), ws);
+  const glm::dvec3 axis_local = glm::conjugate(ws.joint_orientations[size_t(head)]) * glm::dvec3(0, 0, 1);
+  const glm::dvec3 target = ws.joint_origins[size_t(head)] + 3.0 * glm::dvec3(std::sin(1.0), 0.0, std::cos(1.0));
+  const int bones[] = {spine, head};
+  const double shares[] = {0.5, 0.5};
+  const std::vector<double> before = params;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(map.spread_look(Span<const int>(bones, 2), Span<const double>(shares, 2), glm::dvec3(0.0), target,
+                               params.data(), ws));
+  EXPECT_FALSE(map.spread_look(Span<const int>(bones, 2), Span<const double>(shares, 2), axis_local,
+                               glm::dvec3(nan, 0, 0), params.data(), ws));
+  EXPECT_FALSE(map.spread_look(Span<const int>(bones, 2), Span<const double>(shares, 1), axis_local, target,
+                               params.data(), ws));
+  EXPECT_EQ(params, before);
+  ASSERT_TRUE(map.spread_look(Span<const int>(bones, 2), Span<const double>(shares, 2), axis_local, target,
+                              params.data(), ws));
+  EXPECT_TRUE(within_tree_limits(map.tree(), params.data(), 1e-9));
+  tree_forward_kinematics(map.tree(), params.data(), ws);
+  const glm::dvec3 facing = ws.joint_orientations[size_t(head)] * axis_local;
+  EXPECT_LT(std::acos(std::min(1.0, glm::dot(facing, glm::normalize(target - ws.joint_origins[size_t(head)])))),
+            1e-6);
+}
+
 TEST(SkeletonTree, PerFrameCallsAllocateNothing) {
   Skel s = body();
   std::vector<int> order;
@@ -415,11 +495,15 @@ TEST(SkeletonTree, PerFrameCallsAllocateNothing) {
   std::vector<double> params(size_t(map.tree().dof_count()), 0.0);
   std::vector<glm::dquat> rotations(order.size());
   glm::dvec3 root(0.0);
+  TreeWorkspace ws(map.tree(), 4);
   poses[0].position.y = 0.9;  // the floating hips moved: no rebuild
   const std::size_t before = test::allocation_count();
   const PoseUpdate u = update(map, poses);
   map.params_from_pose(params.data());
   const bool ok = map.pose_from_params(params.data(), rotations, root);
+  const int look[] = {map.bone_of(find(s, "Spine")), map.bone_of(find(s, "Head"))};
+  const double shares[] = {0.3, 0.7};
+  map.spread_look(Span<const int>(look, 2), Span<const double>(shares, 2), {0, 0, 1}, {2, 1.5, 1}, params.data(), ws);
   EXPECT_EQ(test::allocation_count(), before);
   EXPECT_TRUE(u.error.empty());
   EXPECT_FALSE(u.shape_changed);

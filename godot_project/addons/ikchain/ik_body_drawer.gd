@@ -10,7 +10,8 @@ extends RefCounted
 ##   "limits"  per IKChainJoint of a solved bone: its hinge arc, cone and twist arc, drawn as
 ##             ik_chain_drawer.gd draws them (the bone's direction: toward its solved child)
 ##   "target"  per enabled effector with a target: a cross at the target and the line from the
-##             effector's bone to it (its error, visible)
+##             effector's bone to it (its error, visible); a look (look_at) adds its look axis,
+##             as long as that line (the angle between them is the look's error)
 ##   "pole"    per effector with a pole: a cross at the pole and the line from the limb's middle
 ##             joint to it
 ##   "goals"   a cross at each effector's bone, its size by priority (level 1 largest)
@@ -94,6 +95,13 @@ static func build(body: Node) -> Dictionary:
 		if target != null and _finite(target):
 			Drawer._add_cross(out["target"], target, cross)
 			out["target"].append_array([at.origin, (target as Transform3D).origin])
+			if e.get("look_at"):
+				# A look: also the bone's look axis, as long as the line to the target (the angle
+				# between the two is the look's error, visible).
+				var reach := at.origin.distance_to((target as Transform3D).origin)
+				var axis: Vector3 = at.basis * (e.get("look_axis") as Vector3)
+				if reach > Drawer.EPSILON and axis.length() > Drawer.EPSILON:
+					out["target"].append_array([at.origin, at.origin + axis.normalized() * reach])
 		var pole := Drawer._node3d_at(body, e.get("pole_target"))
 		var middle := skel.get_bone_parent(bone)
 		if pole != null and global_of.has(middle) and pole.global_position.is_finite():

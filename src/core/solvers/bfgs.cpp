@@ -56,6 +56,7 @@
 #include <cstdint>
 
 #include "core/kinematics.hpp"
+#include "core/solvers/bfgs_common.hpp"
 #include "core/solvers/solvers.hpp"
 #include "core/solvers/stuck.hpp"
 
@@ -69,27 +70,8 @@ constexpr double kMaxIterationRotation = 3.14159265358979323846;
 // Stationary when |grad f| <= this * L * error (dimensionless; L = chain length).
 constexpr double kStationary = 1e-12;
 
-// out = H x for a symmetric H of which only the lower triangle is stored: one pass over it, as
-// Eigen's selfAdjointView product (which warns -Wmaybe-uninitialized inside Eigen on GCC).
-void symmetric_product(const Eigen::MatrixXd& H, const Eigen::VectorXd& x, Eigen::VectorXd& out) {
-  const int n = static_cast<int>(x.size());
-  out.setZero();
-  for (int j = 0; j < n; ++j) {
-    const int below = n - j - 1;
-    const auto col = H.col(j).tail(below);
-    out[j] += H(j, j) * x[j] + col.dot(x.tail(below));
-    out.tail(below) += x[j] * col;
-  }
-}
-
-struct Trial {
-  double alpha = 0.0;
-  double f = 0.0;         // cost at the trial point
-  double dphi = 0.0;      // grad f(trial) . d
-  double decrease = 0.0;  // grad f(start) . (trial - start): alpha * dphi0 unless projected
-  bool projected = false;
-  GoalErrors err;
-};
+using bfgs::symmetric_product;
+using Trial = bfgs::Trial<GoalErrors>;
 
 class Bfgs {
  public:
@@ -105,6 +87,10 @@ class Bfgs {
         escapes_(chain, goals, options, ws) {}
 
   SolverStatus run();
+
+  // The line search (bfgs_common.hpp) evaluates and keeps trial points through these.
+  Trial try_step(double alpha);
+  void keep(const Trial& t);
 
  private:
   // f, residual, J and grad f at `x` (gradient into `g`).
@@ -243,38 +229,7 @@ class Bfgs {
     zero_frozen(ws_.step);
   }
 
-  // Evaluates x + alpha * step, projected onto the limits, into params_trial / gradient_trial.
-  Trial try_step(double alpha) {
-    Trial t;
-    t.alpha = alpha;
-    ws_.params_trial = x_ + alpha * ws_.step;
-    t.projected = project(ws_.params_trial.data());
-    t.err = evaluate(ws_.params_trial.data(), ws_.gradient_trial);
-    jacobian_current_ = false;
-    t.f = t.err.cost;
-    t.dphi = ws_.gradient_trial.dot(ws_.step);
-    t.decrease = t.projected ? ws_.gradient.dot(ws_.params_trial - x_) : alpha * dphi0_;
-    return t;
-  }
-
-  // Remembers `t` (just evaluated by try_step) as the best acceptable point so far.
-  void keep(const Trial& t) {
-    ws_.params_kept = ws_.params_trial;
-    ws_.dof_vec_a = ws_.gradient_trial;
-    kept_ = t;
-    have_kept_ = true;
-    jacobian_current_ = true;  // J, residual: of the point just evaluated, now kept
-  }
-
-  bool sufficient_decrease(const Trial& t) const {
-    return t.f < f0_ && t.f <= f0_ + options_.bfgs_wolfe_c1 * t.decrease;
-  }
-  bool curvature(const Trial& t) const {
-    return std::abs(t.dphi) <= -options_.bfgs_wolfe_c2 * dphi0_;
-  }
-
   bool line_search(double alpha_init, double alpha_max);
-  bool zoom(Trial lo, Trial hi, int evals);
   bool escape();
   void accept(bool allow_update);
   void update_inverse_hessian();
@@ -293,71 +248,38 @@ class Bfgs {
   double f0_ = 0.0;         // f(x) at the start of the line search
   double dphi0_ = 0.0;      // grad f(x) . d
   Trial kept_;
-  bool have_kept_ = false;
   bool jacobian_current_ = false;  // ws.jacobian / ws.residual are of x or of the kept point
   bool fresh_ = true;              // H must be (re)initialised: next direction is Gauss-Newton
   uint64_t active_set_ = 0;        // frozen_signature() of the current BFGS cycle
   mutable int none_frozen_ = -1;   // none_frozen() at x: 1, 0, or -1 = not worked out yet
 };
 
-// N&W Alg. 3.5: bracket an interval containing strong-Wolfe points, starting from alpha_init.
-bool Bfgs::line_search(double alpha_init, double alpha_max) {
-  have_kept_ = false;
-  Trial prev;
-  prev.f = f0_;
-  prev.dphi = dphi0_;
-  double alpha = alpha_init;
-  for (int evals = 1; evals <= options_.bfgs_max_line_search_steps; ++evals) {
-    // The time budget between trial steps (up to kMaxBfgsLineSearchSteps FK + gradient passes):
-    // spent, the search ends with the best point it kept, if any.
-    if (evals > 1 && ws_.deadline.spent()) return have_kept_;
-    const Trial t = try_step(alpha);
-    if (!sufficient_decrease(t) || (evals > 1 && t.f >= prev.f)) return zoom(prev, t, evals);
-    keep(t);
-    // A projected (kinked) path has no meaningful slope: sufficient decrease is enough there.
-    if (t.projected || curvature(t)) return true;
-    if (t.dphi >= 0.0) return zoom(t, prev, evals);
-    if (alpha >= alpha_max) return true;
-    prev = t;
-    alpha = std::min(4.0 * alpha, alpha_max);
-  }
-  return have_kept_;
+// Evaluates x + alpha * step, projected onto the limits, into params_trial / gradient_trial.
+Trial Bfgs::try_step(double alpha) {
+  Trial t;
+  t.alpha = alpha;
+  ws_.params_trial = x_ + alpha * ws_.step;
+  t.projected = project(ws_.params_trial.data());
+  t.err = evaluate(ws_.params_trial.data(), ws_.gradient_trial);
+  jacobian_current_ = false;
+  t.f = t.err.cost;
+  t.dphi = ws_.gradient_trial.dot(ws_.step);
+  t.decrease = t.projected ? ws_.gradient.dot(ws_.params_trial - x_) : alpha * dphi0_;
+  return t;
 }
 
-// N&W Alg. 3.6: lo satisfies sufficient decrease with the lowest f so far (kept unless alpha = 0);
-// the interval between lo and hi contains strong-Wolfe points.
-bool Bfgs::zoom(Trial lo, Trial hi, int evals) {
-  for (; evals < options_.bfgs_max_line_search_steps; ++evals) {
-    const double a0 = lo.alpha, a1 = hi.alpha;
-    const double lo_end = std::min(a0, a1), hi_end = std::max(a0, a1);
-    const double width = hi_end - lo_end;
-    if (!(width > 1e-14 * hi_end)) break;
-    double alpha = 0.5 * (a0 + a1);
-    if (!hi.projected) {
-      // Cubic through (a0, f, f') and (a1, f, f'), eq. (3.59), safeguarded into the interval.
-      const double d1 = lo.dphi + hi.dphi - 3.0 * (lo.f - hi.f) / (a0 - a1);
-      const double disc = d1 * d1 - lo.dphi * hi.dphi;
-      if (disc >= 0.0) {
-        const double d2 = std::copysign(std::sqrt(disc), a1 - a0);
-        const double denom = hi.dphi - lo.dphi + 2.0 * d2;
-        if (denom != 0.0) {
-          const double c = a1 - (a1 - a0) * (hi.dphi + d2 - d1) / denom;
-          if (std::isfinite(c)) alpha = std::clamp(c, lo_end + 0.1 * width, hi_end - 0.1 * width);
-        }
-      }
-    }
-    if (ws_.deadline.spent()) break;  // the time budget, as in line_search()
-    const Trial t = try_step(alpha);
-    if (!sufficient_decrease(t) || t.f >= lo.f) {
-      hi = t;
-      continue;
-    }
-    keep(t);
-    if (t.projected || curvature(t)) return true;
-    if (t.dphi * (hi.alpha - lo.alpha) >= 0.0) hi = lo;
-    lo = t;
-  }
-  return have_kept_;
+// Remembers `t` (just evaluated by try_step) as the best acceptable point so far.
+void Bfgs::keep(const Trial& t) {
+  ws_.params_kept = ws_.params_trial;
+  ws_.dof_vec_a = ws_.gradient_trial;
+  kept_ = t;
+  jacobian_current_ = true;  // J, residual: of the point just evaluated, now kept
+}
+
+// The shared strong-Wolfe search (bfgs_common.hpp) along ws.step.
+bool Bfgs::line_search(double alpha_init, double alpha_max) {
+  bfgs::WolfeSearch<Bfgs, GoalErrors> search(*this, options_, ws_.deadline, f0_, dphi0_);
+  return search.run(alpha_init, alpha_max);
 }
 
 // Stuck at x: the shared escape moves x (true; a new BFGS cycle starts there) or none is left.
@@ -400,33 +322,9 @@ void Bfgs::accept(bool allow_update) {
   update_inverse_hessian();
 }
 
-// Eq. (6.17) in place on the lower triangle, expanded so only H y is needed:
-//   H+ = H - rho (s (Hy)^T + (Hy) s^T) + (rho^2 y^T H y + rho) s s^T.
+// Eq. (6.17) (bfgs_common.hpp) with the pair in ws.step, ws.gradient_trial.
 void Bfgs::update_inverse_hessian() {
-  const Eigen::VectorXd& s = ws_.step;
-  const Eigen::VectorXd& y = ws_.gradient_trial;
-  const double sy = s.dot(y);
-  // Curvature condition: skip the update (keep H positive definite) when it fails.
-  if (!(sy > 1e-12 * s.norm() * y.norm())) return;
-  Eigen::MatrixXd& H = ws_.dof_square;
-  if (fresh_) {
-    H.setIdentity();
-    H *= sy / y.squaredNorm();  // eq. (6.20)
-    fresh_ = false;
-  }
-  Eigen::VectorXd& hy = ws_.dof_vec_b;
-  symmetric_product(H, y, hy);
-  const double rho = 1.0 / sy;
-  const double ss = rho * rho * y.dot(hy) + rho;
-  for (int j = 0; j < n_; ++j) {
-    const double sj = s[j], hj = hy[j];
-    const double a = ss * sj - rho * hj;
-    const double b = -rho * sj;
-    // H is symmetric: only its lower triangle is stored and read (selfadjointView), halving the
-    // memory traffic, which is what bounds this loop for long chains.
-    const int len = n_ - j;
-    H.col(j).tail(len).noalias() += a * s.tail(len) + b * hy.tail(len);
-  }
+  bfgs::update_inverse_hessian(ws_.dof_square, ws_.step, ws_.gradient_trial, ws_.dof_vec_b, fresh_);
 }
 
 SolverStatus Bfgs::run() {

@@ -95,40 +95,45 @@ inline glm::dvec3 hinge_axis_in_base(const Chain& chain, int j, const glm::dquat
   return pre_j * chain.hinge_axis(j);
 }
 
-// Turns ball joint j by the base-frame rotation `delta` (about the joint's origin): Q_j <- delta * Q_j,
+// Turns a ball joint by the base-frame rotation `delta` (about the joint's origin): Q_j <- delta * Q_j,
 // i.e. R_j <- conj(pre_j) * delta * pre_j * R_j. The angle is capped at max_step_angle (0 = none)
-// and the joint projected onto its limits. Returns the base-frame rotation actually applied.
-inline glm::dquat turn_ball(const Chain& chain, int j, const glm::dquat& pre_j, glm::dquat delta,
-                            double max_step_angle, double* params) {
-  const int o = chain.dof_offset(j);
+// and the joint projected onto its limits. `p`: the joint's own 3 params (chains and trees share
+// this, as they share project_joint_params). Returns the base-frame rotation actually applied.
+inline glm::dquat turn_ball_params(const JointLimits& limits, const glm::dquat& pre_j, glm::dquat delta,
+                                   double max_step_angle, double* p) {
   if (max_step_angle > 0.0) {
     glm::dvec3 r = so3::log(delta);
     const double angle = glm::length(r);
     if (angle > max_step_angle) delta = so3::exp(r * (max_step_angle / angle));
   }
-  const glm::dquat old_local = so3::exp(ball_param(params, o));
+  const glm::dquat old_local = so3::exp(ball_param(p, 0));
   const glm::dquat new_local =
       glm::normalize(glm::conjugate(pre_j) * delta * pre_j * old_local);
-  set_ball_param(params, o, so3::log(new_local));
-  project_joint_to_limits(chain, j, params);
-  const glm::dquat applied_local = so3::exp(ball_param(params, o)) * glm::conjugate(old_local);
+  set_ball_param(p, 0, so3::log(new_local));
+  project_joint_params(JointType::kBall, limits, p);
+  const glm::dquat applied_local = so3::exp(ball_param(p, 0)) * glm::conjugate(old_local);
   return glm::normalize(pre_j * applied_local * glm::conjugate(pre_j));
 }
+inline glm::dquat turn_ball(const Chain& chain, int j, const glm::dquat& pre_j, glm::dquat delta,
+                            double max_step_angle, double* params) {
+  return turn_ball_params(chain.limits(j), pre_j, delta, max_step_angle, params + chain.dof_offset(j));
+}
 
-// Turns hinge j by `angle` (rad) about its axis; same capping and projection as turn_ball. Returns
-// the angle actually applied. An unlimited hinge's angle is kept in [-pi, pi].
-inline double turn_hinge(const Chain& chain, int j, double angle, double max_step_angle,
-                         double* params) {
-  const int o = chain.dof_offset(j);
+// Turns a hinge by `angle` (rad) about its axis; same capping and projection as turn_ball. Returns
+// the angle actually applied. An unlimited hinge's angle is kept in [-pi, pi]. `p`: its param.
+inline double turn_hinge_param(const JointLimits& limits, double angle, double max_step_angle, double* p) {
   if (max_step_angle > 0.0) angle = std::clamp(angle, -max_step_angle, max_step_angle);
-  const double old = params[o];
-  if (chain.has_limits(j)) {
-    params[o] = old + angle;
-    project_joint_to_limits(chain, j, params);
+  const double old = p[0];
+  if (limits.has_hinge_limit) {
+    p[0] = old + angle;
+    project_joint_params(JointType::kHinge, limits, p);
   } else {
-    params[o] = wrap_angle(old + angle);
+    p[0] = wrap_angle(old + angle);
   }
-  return wrap_angle(params[o] - old);
+  return wrap_angle(p[0] - old);
+}
+inline double turn_hinge(const Chain& chain, int j, double angle, double max_step_angle, double* params) {
+  return turn_hinge_param(chain.limits(j), angle, max_step_angle, params + chain.dof_offset(j));
 }
 
 // Running sums over the points k = j+1..n of one pass: the current points x_k and the desired

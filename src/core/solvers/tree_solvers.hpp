@@ -43,6 +43,10 @@ GoalLinearization tree_linearize_goal(const Tree& tree, const TreeWorkspace& ws,
 glm::dvec3 tree_jacobian_column(const Tree& tree, const TreeWorkspace& ws, const Goal& goal,
                                 const GoalLinearization& lin, int dof);
 
+// An aim-at goal's effector this close to its point counts as on it (kAimAtOnPoint of the tree's
+// scale; 0 for other kinds): the rule every tree solver measures by.
+double tree_aim_at_on_point(const Tree& tree, const Goal& goal);
+
 struct TreeSolverStatus {
   TerminationReason reason = TerminationReason::kStalled;
   int iterations = 0;
@@ -51,5 +55,13 @@ struct TreeSolverStatus {
 
 TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
                                 TreeWorkspace& ws, double* params);
+// The weighted-sum solvers: priority levels as weight ratios (solvers/tree_common.hpp), no posture
+// for CCD and FABRIK; BFGS takes the posture as the lowest-weight term.
+TreeSolverStatus solve_tree_bfgs(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                                 TreeWorkspace& ws, double* params);
+TreeSolverStatus solve_tree_ccd(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                                TreeWorkspace& ws, double* params);
+TreeSolverStatus solve_tree_fabrik(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                                   TreeWorkspace& ws, double* params);
 
 }  // namespace ikchain

@@ -1,0 +1,114 @@
+// Cyclic coordinate descent on a tree.
+//
+// The chain CCD (ccd.cpp; Wang & Chen 1991, Kenwright 2012) generalised to several end effectors:
+// one iteration = one sweep over the joints from the last to the first. Joints are stored parents
+// first (tree.hpp), so this visits every joint after all of its descendants: leaf to root, one
+// branch after another. Each joint in turn takes the rotation that best serves the goals on the
+// effectors it supports (its subtree), every other joint held fixed, exactly as a chain joint
+// serves the goals after it: the goals become weighted vector pairs seen from the joint's origin
+// (geometric::goal_pairs), a ball takes Horn's optimal rotation (geometric::BallFit), a hinge the
+// closed-form angle (geometric::HingeFit). Each pair's weight is the goal's weight times its
+// level's (tree_common.hpp: priorities as weight ratios), so where branches pull a shared joint (a
+// spine) different ways, the higher level's effectors win. The joint's limits are applied right
+// after its update (turn_ball_params / turn_hinge_param: the mechanism chains use), and the goals'
+// effectors in its subtree are moved by the rotation actually applied, so a sweep costs
+// O(joints x goals) without recomputing forward kinematics: a joint's update moves only joints
+// after it in the order, which the sweep has already visited.
+// A floating root also translates, after its rotation: by the weighted mean of the position goals'
+// remaining offsets (the translation that best serves them all).
+// Prismatic joints are not taken (the solver table). The posture is ignored (no null space).
+// Termination and stuck poses: tree_common::Progress (the stall rule, escapes, the best pose).
+#include <cmath>
+
+#include "core/solvers/geometric_common.hpp"
+#include "core/solvers/tree_common.hpp"
+
+namespace ikchain {
+namespace {
+
+double sweep(const Tree& tree, const TreeProblem& problem, const SolverOptions& o, TreeWorkspace& ws,
+             geometric::Tracked* tracked, double* params) {
+  const int goals = problem.goals.size;
+  for (int g = 0; g < goals; ++g) {
+    const Goal& goal = problem.goals[g].goal;
+    tracked[g].effector = goal.effector;
+    tracked[g].position = tree_effector_position(tree, ws, goal.effector);
+    tracked[g].orientation = tree_effector_orientation(tree, ws, goal.effector);
+    tracked[g].aim_at_on_point = tree_aim_at_on_point(tree, goal);
+  }
+  double largest = 0.0;
+  for (int j = tree.joint_count() - 1; j >= 0; --j) {
+    const glm::dvec3 origin = ws.joint_origins[j];
+    const glm::dquat& pre = ws.joint_pre_rotations[j];
+    double* p = params + tree.dof_offset(j);
+    glm::dquat applied = geometric::kIdentity;
+    auto each_goal = [&](auto&& add) {
+      bool any = false;
+      for (int g = 0; g < goals; ++g) {
+        const TreeGoal& tg = problem.goals[g];
+        if (!tree.supports(tg.goal.effector, j)) continue;
+        any = true;
+        const double lw = tree_common::level_weight(tg.level);
+        geometric::goal_pairs(tg.goal, tracked[g], origin,
+                              [&](const glm::dvec3& a, const glm::dvec3& b, double w) { add(a, b, lw * w); });
+      }
+      return any;
+    };
+    if (tree.joint_type(j) == JointType::kBall) {
+      geometric::BallFit fit;
+      each_goal([&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(a, b, w); });
+      if (fit.pairs > 0) applied = geometric::turn_ball_params(tree.limits(j), pre, fit.rotation(), o.max_step_angle, p);
+    } else {
+      const glm::dvec3 axis = pre * tree.axis(j);
+      geometric::HingeFit fit;
+      if (each_goal([&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(axis, a, b, w); }))
+        applied = glm::angleAxis(geometric::turn_hinge_param(tree.limits(j), fit.angle(), o.max_step_angle, p), axis);
+    }
+    largest = std::max(largest, glm::length(so3::log(applied)));
+    glm::dvec3 shift(0.0);
+    if (j == 0 && tree.floating_root()) {  // the root's translation, after its rotation (see above)
+      glm::dvec3 sum(0.0);
+      double weight = 0.0;
+      for (int g = 0; g < goals; ++g) {
+        const TreeGoal& tg = problem.goals[g];
+        if (tg.goal.kind != GoalKind::kPosition) continue;
+        const double w = tree_common::level_weight(tg.level) * tg.goal.weight;
+        sum += w * (tg.goal.target_position - (origin + applied * (tracked[g].position - origin)));
+        weight += w;
+      }
+      if (weight > 0.0) shift = sum / weight;
+      for (int d = 0; d < 3; ++d) params[d] += shift[d];
+      largest = std::max(largest, glm::length(shift));
+    }
+    for (int g = 0; g < goals; ++g) {
+      if (!tree.supports(tracked[g].effector, j)) continue;
+      tracked[g].position = origin + applied * (tracked[g].position - origin) + shift;
+      tracked[g].orientation = glm::normalize(applied * tracked[g].orientation);
+    }
+  }
+  return largest;
+}
+
+}  // namespace
+
+TreeSolverStatus solve_tree_ccd(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                                TreeWorkspace& ws, double* params) {
+  TreeSolverStatus status;
+  geometric::Tracked tracked[kMaxTreeGoals];
+  tree_common::Progress progress(tree, problem, options, ws, params);
+  status.reason = TerminationReason::kMaxIterations;
+  if (progress.met()) {
+    status.reason = TerminationReason::kConverged;
+    return status;
+  }
+  while (status.iterations < options.max_iterations && !(status.iterations == 0 && ws.deadline.spent())) {
+    const double moved = sweep(tree, problem, options, ws, tracked, params);
+    ++status.iterations;
+    if (progress.stop_after_iteration(params, moved, status.reason)) break;
+  }
+  progress.finish(status.reason, params);
+  status.escapes = progress.escapes();
+  return status;
+}
+
+}  // namespace ikchain

@@ -1,0 +1,320 @@
+// FABRIK on a tree: several end effectors by Aristidou & Lasenby's sub-base scheme.
+//
+// Source: Aristidou & Lasenby, "FABRIK: A fast, iterative solver for the Inverse Kinematics
+// problem", Graphical Models 73(5), 2011: Alg. 1 (the two reaching stages), sec. 4.2 (constraints
+// re-applied joint by joint), sec. 5 (multiple end effectors: sub-bases). The chain version,
+// fabrik.cpp, explains the fused conversion back to joint parameters this file generalises.
+//
+// Points: every joint origin the goals depend on and every effector carrying a position goal, each
+// at a fixed distance from its parent point (the bone: |offset_in_parent|, or the effector's
+// |offset|). Each point carries the weight of the position goals below it (goal weight x level
+// weight, tree_common.hpp: priorities as weight ratios). One iteration:
+//  - forward stage (from the effectors toward the root, ws.points_b): an effector point is placed on
+//    its target (the weighted mean of its position goals), a joint point is pulled from each of its
+//    children toward its old position to the bone's length, and a sub-base (a joint several
+//    targeted branches meet at: the chest, the hips) takes the centroid of its branches' proposals,
+//    weighted by their goals (A&L sec. 5 take the plain centroid; the weights are what makes a
+//    level-1 foot outweigh a level-2 hand). A joint is pinned instead where a goal fixes it: an
+//    effector at its origin with a position goal, or an effector with both a position and an
+//    orientation goal (the joint sits at target - F offset, F the frame the heaviest orientation
+//    goal asks for: fabrik.cpp's tip-frame pin, on every effector).
+//  - backward stage (from the root, ws.points_c): the root stays at its origin (a floating root
+//    goes to the forward stage's centroid: the body moves to where its branches pull it), and every
+//    point is pulled from its parent's new position to the bone's length.
+//  - conversion, fused, root first: each joint turns so that the points below it best follow their
+//    backward-stage positions, its ancestors already updated: a ball with one targeted child takes
+//    the minimal rotation aiming that bone (twisted about it when the child is a hinge so its plane
+//    faces the points further on, as fabrik.cpp's hip -> knee), a ball sub-base Horn's best rotation
+//    of its children (geometric::BallFit), a hinge the least-squares angle over every targeted
+//    point below it (geometric::HingeFit). Limits are applied right after each joint's update
+//    (turn_ball_params / turn_hinge_param, the mechanism chains use), so they feed into the rest of
+//    the pass (A&L sec. 4.2); points and params never disagree (forward kinematics follows).
+//  - orientation, aim and aim-at goals: after the pass each such goal's effector joint takes the
+//    rotation that best serves the goals on its effectors (CCD's per-joint fit, as fabrik.cpp's
+//    final tip alignment), for every effector, not only a chain's tip.
+// Prismatic joints are not taken (the solver table). The posture is ignored (no null space).
+// Termination and stuck poses: tree_common::Progress (the stall rule, escapes, the best pose).
+#include <algorithm>
+#include <cmath>
+
+#include "core/solvers/geometric_common.hpp"
+#include "core/solvers/tree_common.hpp"
+
+namespace ikchain {
+namespace {
+
+class TreeFabrik {
+ public:
+  TreeFabrik(const Tree& tree, const TreeProblem& problem, const SolverOptions& o, TreeWorkspace& ws)
+      : tree_(tree), problem_(problem), o_(o), ws_(ws), joints_(tree.joint_count()),
+        tiny_(1e-12 * std::max(tree.total_length(), 1e-300)) {
+    // Point weights: each position goal's weight on its effector point, summed up toward the root.
+    std::fill(ws.point_weight.begin(), ws.point_weight.end(), 0.0);
+    for (int g = 0; g < problem.goals.size; ++g) {
+      const TreeGoal& tg = problem.goals[g];
+      if (tg.goal.kind == GoalKind::kPosition)
+        ws.point_weight[joints_ + tg.goal.effector] += tree_common::level_weight(tg.level) * tg.goal.weight;
+      else
+        frame_goals_ = true;
+    }
+    for (int e = 0; e < tree.effector_count(); ++e) ws.point_weight[tree.effector(e).joint] += ws.point_weight[joints_ + e];
+    for (int j = joints_ - 1; j > 0; --j)
+      if (tree.parent(j) >= 0) ws.point_weight[tree.parent(j)] += ws.point_weight[j];
+  }
+
+  // One iteration (ws holds the forward kinematics of params on entry); returns the largest
+  // parameter change.
+  double iterate(double* params);
+
+ private:
+  double weight(int point) const { return ws_.point_weight[point]; }
+  double bone(int point) const {
+    return point < joints_ ? glm::length(tree_.offset_in_parent(point))
+                           : glm::length(tree_.effector(point - joints_).offset);
+  }
+  int parent_point(int point) const { return point < joints_ ? tree_.parent(point) : tree_.effector(point - joints_).joint; }
+
+  // The target of effector e's position goals (weighted mean) and, when it also has an orientation
+  // goal, the frame its joint must have (the heaviest such goal).
+  bool effector_targets(int e, glm::dvec3& position, glm::dquat& frame, bool& has_frame) const {
+    double w = 0.0, frame_w = 0.0;
+    glm::dvec3 sum(0.0);
+    for (int g = 0; g < problem_.goals.size; ++g) {
+      const Goal& goal = problem_.goals[g].goal;
+      if (goal.effector != e) continue;
+      if (goal.kind == GoalKind::kPosition) {
+        sum += goal.weight * goal.target_position;
+        w += goal.weight;
+      } else if (goal.kind == GoalKind::kOrientation && goal.weight > frame_w) {
+        frame_w = goal.weight;
+        frame = so3::normalized(goal.target_orientation) * glm::conjugate(tree_.effector(e).rotation);
+      }
+    }
+    has_frame = frame_w > 0.0;
+    if (!(w > 0.0)) return false;
+    position = sum / w;
+    return true;
+  }
+
+  void forward_stage();
+  void backward_stage();
+  void convert(double* params);
+  void align_frames(double* params);
+
+  const Tree& tree_;
+  const TreeProblem& problem_;
+  const SolverOptions& o_;
+  TreeWorkspace& ws_;
+  const int joints_;
+  const double tiny_;
+  bool frame_goals_ = false;
+};
+
+// Into ws.points_b (ws.points_c accumulates the children's weighted proposals); ws.points_a holds
+// the current points.
+void TreeFabrik::forward_stage() {
+  const glm::dvec3* a = ws_.points_a.data();
+  glm::dvec3* b = ws_.points_b.data();
+  glm::dvec3* acc = ws_.points_c.data();
+  std::fill(ws_.points_c.begin(), ws_.points_c.end(), glm::dvec3(0.0));
+  std::fill(ws_.points_b.begin(), ws_.points_b.begin() + joints_, glm::dvec3(INFINITY));  // not pinned
+  // A proposal for `point`'s parent: pulled from b[point] toward the parent's old position.
+  auto propose = [&](int point) {
+    const int p = parent_point(point);
+    if (p < 0) return;
+    glm::dvec3 dir = a[p] - b[point];
+    double len = glm::length(dir);
+    if (!(len > tiny_)) {  // on top of each other: keep the old bone direction
+      dir = a[p] - a[point];
+      len = glm::length(dir);
+    }
+    acc[p] += weight(point) * (len > 0.0 ? b[point] + dir * (bone(point) / len) : b[point]);
+  };
+  for (int e = 0; e < tree_.effector_count(); ++e) {
+    const int point = joints_ + e;
+    glm::dvec3 target;
+    glm::dquat frame;
+    bool has_frame = false;
+    if (!(weight(point) > 0.0) || !effector_targets(e, target, frame, has_frame)) continue;
+    b[point] = target;
+    const int j = tree_.effector(e).joint;
+    if (has_frame) {
+      b[j] = target - frame * tree_.effector(e).offset;  // pinned
+    } else if (bone(point) <= tiny_) {
+      b[j] = target;  // the effector is the joint's origin: pinned
+    }
+    propose(point);
+  }
+  for (int j = joints_ - 1; j >= 0; --j) {
+    if (!(weight(j) > 0.0)) continue;
+    if (!std::isfinite(b[j].x)) b[j] = acc[j] / weight(j);  // the (weighted) centroid of the branches
+    propose(j);
+  }
+}
+
+// Into ws.points_c, from the root.
+void TreeFabrik::backward_stage() {
+  const glm::dvec3* b = ws_.points_b.data();
+  glm::dvec3* c = ws_.points_c.data();
+  const int points = joints_ + tree_.effector_count();
+  for (int k = 0; k < points; ++k) {
+    if (!(weight(k) > 0.0)) continue;
+    const int p = parent_point(k);
+    if (p < 0) {
+      c[k] = (k == 0 && tree_.floating_root()) ? b[k] : ws_.points_a[k];
+      continue;
+    }
+    const glm::dvec3 dir = b[k] - c[p];
+    const double len = glm::length(dir);
+    c[k] = len > tiny_ ? c[p] + dir * (bone(k) / len) : c[p] + (ws_.points_a[k] - ws_.points_a[p]);
+  }
+}
+
+// Root first: each joint turned so the targeted points below it follow ws.points_c. ws's frames
+// are overwritten joint by joint with the new pose (a joint's old frame is read before).
+void TreeFabrik::convert(double* params) {
+  const glm::dvec3* a = ws_.points_a.data();
+  const glm::dvec3* c = ws_.points_c.data();
+  const int points = joints_ + tree_.effector_count();
+  for (int j = 0; j < joints_; ++j) {
+    const int p = tree_.parent(j);
+    const glm::dquat parent_q = p < 0 ? geometric::kIdentity : ws_.joint_orientations[p];
+    glm::dvec3 origin = p < 0 ? tree_.offset_in_parent(j) : ws_.joint_origins[p] + parent_q * tree_.offset_in_parent(j);
+    if (j == 0 && tree_.floating_root()) {
+      if (weight(0) > 0.0) {
+        const glm::dvec3 t = c[0] - origin;
+        params[0] = t.x, params[1] = t.y, params[2] = t.z;
+      }
+      origin += glm::dvec3(params[0], params[1], params[2]);
+    }
+    const glm::dquat pre = glm::normalize(parent_q * tree_.rest_rotation(j));
+    // The rigid motion of j's subtree caused by its ancestors' updates.
+    const glm::dquat moved = glm::normalize(pre * glm::conjugate(ws_.joint_pre_rotations[j]));
+    const glm::dvec3 old_origin = a[j];
+    auto current = [&](int k) { return moved * (a[k] - old_origin); };  // from the new origin
+    double* q = params + tree_.dof_offset(j);
+    if (weight(j) > 0.0) {
+      if (tree_.joint_type(j) == JointType::kBall) {
+        // The targeted children: joints hanging from j and effectors on j.
+        int children = 0, only = -1;
+        geometric::BallFit fit;
+        for (int k = j + 1; k < points; ++k) {
+          if (!(weight(k) > 0.0) || parent_point(k) != j) continue;
+          const glm::dvec3 from = current(k), to = c[k] - origin;
+          if (glm::length(from) <= tiny_) continue;
+          ++children;
+          only = k;
+          fit.add(from, to, weight(k));
+        }
+        if (children == 1) {
+          const glm::dvec3 aim = c[only] - origin;
+          const glm::dquat applied = geometric::turn_ball_params(
+              tree_.limits(j), pre, geometric::rotation_between(current(only), aim), o_.max_step_angle, q);
+          // A hinge child bends only in its own plane: twist about the bone so it faces the points
+          // further on (fabrik.cpp's reason).
+          if (only < joints_ && tree_.joint_type(only) == JointType::kHinge && glm::length(aim) > tiny_) {
+            const glm::dvec3 axis = glm::normalize(aim);
+            geometric::HingeFit twist;
+            for (int k = only + 1; k < points; ++k)
+              if (weight(k) > 0.0 && tree_common::is_ancestor_or_self(tree_, only, k < joints_ ? k : parent_point(k)))
+                twist.add(axis, applied * current(k), c[k] - origin, 1.0);
+            geometric::turn_ball_params(tree_.limits(j), pre, glm::angleAxis(twist.angle(), axis), o_.max_step_angle, q);
+          }
+        } else if (children > 1) {
+          geometric::turn_ball_params(tree_.limits(j), pre, fit.rotation(), o_.max_step_angle, q);
+        }
+      } else {
+        const glm::dvec3 axis = pre * tree_.axis(j);
+        geometric::HingeFit fit;
+        for (int k = j + 1; k < points; ++k)
+          if (weight(k) > 0.0 && tree_common::is_ancestor_or_self(tree_, j, k < joints_ ? k : parent_point(k)))
+            fit.add(axis, current(k), c[k] - origin, 1.0);
+        geometric::turn_hinge_param(tree_.limits(j), fit.angle(), o_.max_step_angle, q);
+      }
+    }
+    glm::dquat orientation = pre;
+    if (tree_.joint_type(j) == JointType::kBall)
+      orientation = pre * so3::exp(glm::dvec3(q[0], q[1], q[2]));
+    else
+      orientation = pre * glm::angleAxis(q[0], tree_.axis(j));
+    ws_.joint_origins[j] = origin;
+    ws_.joint_pre_rotations[j] = pre;
+    ws_.joint_orientations[j] = glm::normalize(orientation);
+  }
+}
+
+// Each joint carrying an orientation / aim goal's effector takes the rotation that best serves the
+// goals on its effectors (geometric::goal_pairs, as CCD's per-joint fit). ws: FK of params on
+// entry; stale after.
+void TreeFabrik::align_frames(double* params) {
+  geometric::Tracked tracked;
+  for (int j = 0; j < joints_; ++j) {
+    bool any = false;
+    for (int g = 0; g < problem_.goals.size && !any; ++g)
+      any = problem_.goals[g].goal.kind != GoalKind::kPosition && tree_.effector(problem_.goals[g].goal.effector).joint == j;
+    if (!any) continue;
+    const glm::dvec3 origin = ws_.joint_origins[j];
+    const glm::dquat& pre = ws_.joint_pre_rotations[j];
+    auto each_goal = [&](auto&& add) {
+      for (int g = 0; g < problem_.goals.size; ++g) {
+        const TreeGoal& tg = problem_.goals[g];
+        if (tree_.effector(tg.goal.effector).joint != j) continue;
+        tracked.position = tree_effector_position(tree_, ws_, tg.goal.effector);
+        tracked.orientation = tree_effector_orientation(tree_, ws_, tg.goal.effector);
+        tracked.aim_at_on_point = tree_aim_at_on_point(tree_, tg.goal);
+        const double lw = tree_common::level_weight(tg.level);
+        geometric::goal_pairs(tg.goal, tracked, origin,
+                              [&](const glm::dvec3& a, const glm::dvec3& b, double w) { add(a, b, lw * w); });
+      }
+    };
+    double* q = params + tree_.dof_offset(j);
+    if (tree_.joint_type(j) == JointType::kBall) {
+      geometric::BallFit fit;
+      each_goal([&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(a, b, w); });
+      if (fit.pairs > 0) geometric::turn_ball_params(tree_.limits(j), pre, fit.rotation(), o_.max_step_angle, q);
+    } else {
+      const glm::dvec3 axis = pre * tree_.axis(j);
+      geometric::HingeFit fit;
+      each_goal([&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(axis, a, b, w); });
+      geometric::turn_hinge_param(tree_.limits(j), fit.angle(), o_.max_step_angle, q);
+    }
+  }
+}
+
+double TreeFabrik::iterate(double* params) {
+  const int dofs = tree_.dof_count();
+  std::copy(params, params + dofs, ws_.params_trial.data());
+  for (int j = 0; j < joints_; ++j) ws_.points_a[j] = ws_.joint_origins[j];
+  for (int e = 0; e < tree_.effector_count(); ++e) ws_.points_a[joints_ + e] = tree_effector_position(tree_, ws_, e);
+  forward_stage();
+  backward_stage();
+  convert(params);  // leaves ws holding the new pose's frames
+  if (frame_goals_) align_frames(params);
+  double moved = 0.0;
+  for (int d = 0; d < dofs; ++d) moved = std::max(moved, std::abs(params[d] - ws_.params_trial[d]));
+  return moved;
+}
+
+}  // namespace
+
+TreeSolverStatus solve_tree_fabrik(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
+                                   TreeWorkspace& ws, double* params) {
+  TreeSolverStatus status;
+  TreeFabrik fabrik(tree, problem, options, ws);
+  tree_common::Progress progress(tree, problem, options, ws, params);
+  status.reason = TerminationReason::kMaxIterations;
+  if (progress.met()) {
+    status.reason = TerminationReason::kConverged;
+    return status;
+  }
+  while (status.iterations < options.max_iterations && !(status.iterations == 0 && ws.deadline.spent())) {
+    const double moved = fabrik.iterate(params);
+    ++status.iterations;
+    if (progress.stop_after_iteration(params, moved, status.reason)) break;
+  }
+  progress.finish(status.reason, params);
+  status.escapes = progress.escapes();
+  return status;
+}
+
+}  // namespace ikchain
