@@ -99,6 +99,9 @@ var _camera_focus := Vector3.ZERO
 var _max_planted_error := 0.0
 var _max_contact_error := 0.0
 var _max_grip_error := 0.0
+## Frames whose solve used every iteration allowed, and those of them with a goal level unmet.
+var _at_max_iterations := 0
+var _unmet_levels := 0
 
 
 func _ready() -> void:
@@ -458,6 +461,12 @@ func _on_skeleton_updated() -> void:
 		stats.add("hips", position_errors["Hips"])
 		stats.add("micros", last_usec())
 		stats.add("iterations", ik_body.get_last_iterations())
+	if ik_body.get_last_iterations() >= ik_body.max_iterations:
+		_at_max_iterations += 1
+		for level in range(1, 5):
+			if not ik_body.is_last_level_met(level):
+				_unmet_levels += 1
+				break
 	if gripping():
 		_max_grip_error = maxf(_max_grip_error, maxf(position_errors["LeftHand"], position_errors["RightHand"]))
 	for i in 2:
@@ -512,10 +521,11 @@ func _finish() -> void:
 		why = "a ground contact was %.2f mm off the course's surface" % (1000.0 * _max_contact_error)
 	elif _run.count("grip") > 0 and not (_max_grip_error <= GRIP_TOLERANCE):
 		why = "a hand was %.1f mm off the crate's grip (> %.0f mm)" % [1000.0 * _max_grip_error, 1000.0 * GRIP_TOLERANCE]
-	print("character summary: %d frames, %d landings, planted feet %.3f mm mean / %.3f mm max, hands %.1f mm (at the grips %s), head %.2f°, hips %.1f mm, %.0f µs and %.1f iterations per character" % [
+	print("character summary: %d frames, %d landings, planted feet %.3f mm mean / %.3f mm max, hands %.1f mm (at the grips %s), head %.2f°, hips %.1f mm, %.0f µs and %.1f iterations per character, %d frames at max_iterations (%d of them with a level unmet)" % [
 			frames, landings, 1000.0 * _run.mean("planted"), 1000.0 * _max_planted_error, 1000.0 * _run.mean("hands"),
 			"%.2f mm max" % (1000.0 * _max_grip_error) if _run.count("grip") > 0 else "not reached",
-			rad_to_deg(_run.mean("head")), 1000.0 * _run.mean("hips"), _run.mean("micros"), _run.mean("iterations")])
+			rad_to_deg(_run.mean("head")), 1000.0 * _run.mean("hips"), _run.mean("micros"), _run.mean("iterations"),
+			_at_max_iterations, _unmet_levels])
 	print("demo: PASS character: %d landings, planted feet within %.2f mm of their targets%s" % [landings, 1000.0 * _max_planted_error,
 			", hands within %.2f mm of the grips" % (1000.0 * _max_grip_error) if _run.count("grip") > 0 else ""]
 			if why == "" else "demo: FAIL character: %s" % why)
