@@ -192,6 +192,20 @@ func test_character_walks_with_planted_feet() -> void:
 	check(scene.stats_label.text.contains("µs per character"), "the HUD shows the figures: %s" % scene.stats_label.text)
 	var hips_y: float = scene.targets["Hips"].global_position.y
 	check(hips_y > 0.85 and hips_y < 1.01, "the hips walk a little below their rest height: %.3f m" % hips_y)
+	# Walking upright: the chest within 20° of vertical (the posture task keeps the spine near the
+	# relaxed stance; measured up to 17°, the look up at the orb turns the spine a little too), the
+	# hands below the shoulders, both knees bent forward or straight.
+	var pose: Dictionary = await _ground_pose(scene, ["UpperChest", "LeftUpperArm", "RightUpperArm", "LeftHand",
+			"RightHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "RightUpperLeg", "RightLowerLeg", "RightFoot"])
+	var chest := rad_to_deg((pose["UpperChest"] as Transform3D).basis.y.normalized().angle_to(Vector3.UP))
+	check_le(chest, 20.0, "the chest's lean while walking (°; its +Y %s)" % (pose["UpperChest"] as Transform3D).basis.y.normalized())
+	for side in ["Left", "Right"]:
+		check(pose[side + "Hand"].origin.y < pose[side + "UpperArm"].origin.y - 0.3, "%s hand hangs below the shoulder" % side)
+		var hip: Vector3 = pose[side + "UpperLeg"].origin
+		var knee: Vector3 = pose[side + "LowerLeg"].origin
+		var ankle: Vector3 = pose[side + "Foot"].origin
+		var along := (knee.y - hip.y) / (ankle.y - hip.y)
+		check(knee.z > lerpf(hip.z, ankle.z, along) - 0.005, "%s knee bends forward, not back: z %.3f" % [side, knee.z])
 
 
 func test_character_feet_follow_the_ramp_and_steps() -> void:
