@@ -826,8 +826,8 @@ func test_motion_cost_makes_the_spine_reluctant() -> void:
 
 ## A body that reached far and came back shows the pose it had before the reach: the posture task
 ## pulls the freedom the effectors leave toward the incoming (animated) pose, never toward the last
-## solution, so a bend the reach needed does not stay (the character demo's walk after the pick-up
-## kept a bent spine and an upturned pelvis before this).
+## solution, so a bend the reach needed does not stay (the character demo kept a backward-bent
+## spine from its first frames, and an upturned pelvis after reaching for the crate, before this).
 func test_reach_and_return_leaves_no_bend_behind() -> void:
 	var skel := _humanoid()
 	case_root.add_child(skel)
@@ -857,9 +857,10 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 	var after := await _capture(skel, body)
 	check_le(_origin(skel, after, "LeftHand").distance_to(near), body.tolerance + FLOAT_SLACK, "the hand is back (m)")
 	var bend_after := _angle((after["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
-	# Not exactly: the solve stops once a posture step would push the hand out of tolerance
-	# (measured 0.044 before, 0.116 after; 0.469, all of the far bend, when the posture was the last
-	# solution).
-	check_le(bend_after - bend_before, 0.1,
+	# Measured: 0.469 rad after (all of the far bend) when the posture was the last solution; 0.116
+	# with the posture on the incoming pose but posture steps refused once they pushed the hand out
+	# of tolerance; now the solve's second-order correction brings the hand back and the posture
+	# goes on (tree_dls.cpp).
+	check_le(absf(bend_after - bend_before), deg_to_rad(1.0),
 			"the spine's bend back near what it was (rad; %.4f before the reach, %.4f far, %.4f after)" % [
 			bend_before, bend_far, bend_after])
