@@ -211,8 +211,11 @@ class HierarchicalStep {
 
   // A second-order correction (Nocedal & Wright, sec. 18.3) from a trial pose whose residual rows
   // are `trial_residual`: the same step with the Jacobian of the pose it came from. A step that
-  // serves a lower level drifts the higher ones by its square (the null space is flat only to
-  // first order); this takes the drift back without a new linearisation.
+  // serves a lower level, or the posture, drifts the levels above it by its square (the null space
+  // is flat only to first order); this takes the drift back without a new linearisation. Without
+  // it, a posture step from a pose whose goals are just met pushes them out of tolerance, is
+  // refused, and the solve ends there: the posture never gets back (test_ik_body::
+  // reach_and_return_leaves_no_bend_behind).
   bool correct(const double* trial_params, const Eigen::VectorXd& trial_residual, double mu) {
     return hierarchical(trial_params, trial_residual, mu, 0.0);
   }
@@ -547,7 +550,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
-      if (!trial_ok && model.level_count() > 1 && model.correct(ws.params_trial.data(), ws.residual_trial, mu)) {
+      if (!trial_ok && (model.level_count() > 1 || !problem.posture.empty()) &&
+          model.correct(ws.params_trial.data(), ws.residual_trial, mu)) {
         // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
         ws.dof_vec_b = ws.params_trial;
         make_trial(tree, o, ws.dof_vec_b.data(), ws.step.data(), ws.params_trial.data());
