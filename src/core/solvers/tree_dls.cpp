@@ -39,6 +39,8 @@ constexpr double kProjectorRidge = 1e-10;
 // second-order change a lower level's null-space step makes).
 constexpr double kSameCost = 1e-9;
 constexpr int kLimitPasses = 3;
+// The shortest share of the posture step tried once every goal is met (each refused step quarters it).
+constexpr double kMinPostureGain = 1.0 / 64.0;
 // The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
 // damping added first, so this only catches rounding).
 constexpr double kMinPivot2 = 1e-200;
@@ -213,8 +215,9 @@ class HierarchicalStep {
   // are `trial_residual`: the same step with the Jacobian of the pose it came from. A step that
   // serves a lower level, or the posture, drifts the levels above it by its square (the null space
   // is flat only to first order); this takes the drift back without a new linearisation. Without
-  // it, a posture step from a pose whose goals are just met pushes them out of tolerance, is
-  // refused, and the solve ends there: the posture never gets back (test_ik_body::
+  // it (and the shorter posture steps of solve_tree_dls), a posture step from a pose whose goals
+  // are just met pushes them out of tolerance, is refused, and the solve ends there: the posture
+  // never gets back (TreeSolve.PostureMovesOnFromAStartThatAlreadyMeetsTheGoals, test_ik_body::
   // reach_and_return_leaves_no_bend_behind).
   bool correct(const double* trial_params, const Eigen::VectorXd& trial_residual, double mu) {
     return hierarchical(trial_params, trial_residual, mu, 0.0);
@@ -594,7 +597,14 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       tree_dof_axes(tree, params, ws);  // FK of params is what ws holds (the trial's)
       model.linearize();
     } else {
-      if (current.all_met()) {  // only the posture was left: it goes as far as the goals allow
+      if (current.all_met()) {
+        // Only the posture was left. Its step drifts the goals by its square: a shorter one may keep
+        // them met; below kMinPostureGain it goes as far as the goals allow.
+        if (!problem.posture.empty() && posture_gain > kMinPostureGain) {
+          posture_gain *= 0.25;
+          tree_forward_kinematics(tree, params, ws);  // ws holds the trial's FK
+          continue;
+        }
         status.reason = TerminationReason::kConverged;
         break;
       }
