@@ -328,3 +328,24 @@ func test_character_wires_ik_body_by_bone_name() -> void:
 	check(body.is_last_usable(), "the last solve is usable: %s" % body.get_last_reason())
 	check_eq(scene.last_usec(), body.get_last_usec(), "µs from get_last_usec()")
 	check(scene.stats_label.text.contains("µs per character"), "the HUD shows IKBody's µs: %s" % scene.stats_label.text)
+
+
+## After the pick-up the body walks upright again: IKBody continues from the crouched, bent pose,
+## and its posture task brings the spine and pelvis back to the relaxed stance (the bend the crate
+## needed does not stay).
+func test_character_straightens_up_after_the_pick_up() -> void:
+	var scene: Node3D = (load(CHARACTER) as PackedScene).instantiate()
+	case_root.add_child(scene)
+	await _physics_frames(2)
+	scene.restart_at(scene.phase_start("pick") + 2.2)
+	await _physics_frames(30)
+	var bent: Dictionary = await _ground_pose(scene, ["Hips", "UpperChest"])
+	var chest_bent := rad_to_deg((bent["UpperChest"] as Transform3D).basis.y.normalized().angle_to(Vector3.UP))
+	check(chest_bent > 45.0, "bent over the crate first: chest %.1f°" % chest_bent)
+	scene.restart_at(scene.phase_start("walk_back") + 1.5)
+	await _physics_frames(90)
+	var upright: Dictionary = await _ground_pose(scene, ["Hips", "UpperChest"])
+	var pelvis := rad_to_deg((upright["Hips"] as Transform3D).basis.y.normalized().angle_to(Vector3.UP))
+	var chest := rad_to_deg((upright["UpperChest"] as Transform3D).basis.y.normalized().angle_to(Vector3.UP))
+	check_le(pelvis, 10.0, "the pelvis upright again, walking back (°)")
+	check_le(chest, 20.0, "the chest upright again, walking back (°)")
