@@ -4,14 +4,13 @@ extends Node3D
 ## floor, puts it back, turns and walks home, its head following a drifting orb. The scene only
 ## moves effector targets (Marker3D under Targets, written by character/body_targets.gd: foot
 ## placement by ray casts, the hips' height, the hands, the look); one IKBody node under the
-## skeleton poses the whole body onto them. A build without IKBody shows the same targets posed
-## by a GDScript stand-in (character/standin_ik.gd): limb by limb, with a crude forward bend.
+## skeleton poses the whole body onto them, starting from a relaxed stance (RELAXED: arms down,
+## elbows a little bent), which is the pose its posture task keeps the spare freedom near.
 ## Options: demo_cli.gd (--demo-seconds, --screenshot, --screenshot-at, --start-at).
 
 const Cli := preload("res://demo/demo_cli.gd")
 const BodyTargets := preload("res://demo/character/body_targets.gd")
 const Course := preload("res://demo/character/course.gd")
-const StandIn := preload("res://demo/character/standin_ik.gd")
 const ToesOnGround := preload("res://demo/character/toes_on_ground.gd")
 
 ## The effectors, their priority (1 = highest: the feet stay planted whatever the hands need)
@@ -24,6 +23,14 @@ const EFFECTORS := {
 const TARGET_COLORS := {
 	"Hips": Color(1.0, 0.55, 0.1), "LeftFoot": Color(0.3, 0.95, 0.4), "RightFoot": Color(0.3, 0.95, 0.4),
 	"LeftHand": Color(0.25, 0.8, 1.0), "RightHand": Color(0.25, 0.8, 1.0), "Head": Color(1.0, 0.9, 0.2),
+}
+
+## The relaxed stance the skeleton holds under the IK (the "animation" IKBody corrects): per bone,
+## a turn in the skeleton's space (axis, degrees) on top of its parent's. The T-pose's arms hang
+## down, the elbows bend a little forward.
+const RELAXED := {
+	"LeftUpperArm": [Vector3.BACK, -78.0], "RightUpperArm": [Vector3.BACK, 78.0],
+	"LeftLowerArm": [Vector3.LEFT, 15.0], "RightLowerArm": [Vector3.LEFT, 15.0],
 }
 
 ## The lap (m, s, rad): stand, walk out over the course, pick the crate up and put it down, turn,
@@ -42,6 +49,8 @@ const CRATE_AHEAD := 0.5
 const CARRY := Vector3(0.0, 1.0, 0.38)
 const CROUCH := 0.34
 const CROUCH_BACK := 0.05
+## How far the pelvis tilts forward at the deepest crouch (rad).
+const PELVIS_TILT := deg_to_rad(40.0)
 ## A planted foot further than this from its target fails the headless run (m).
 const PLANTED_TOLERANCE := 0.01
 ## While the hands grip the crate on the floor (these seconds into the pick-up), IKBody must hold
@@ -60,9 +69,8 @@ const GRIP_TOLERANCE := 0.02
 @onready var show_targets: CheckBox = $UI/Panel/VBox/ShowTargets
 
 var options := {}
-## The IKBody node when this build has the class, else null (the stand-in poses the body).
-var ik_body: Node = null
-var standin: SkeletonModifier3D = null
+## The IKBody node under the skeleton (the demo ships with the extension).
+var ik_body: IKBody = null
 ## Runs after the IK: keeps a rolling foot's toes on the ground (toes_on_ground.gd).
 var toes: SkeletonModifier3D = null
 ## Effector target markers by bone name.
@@ -90,6 +98,10 @@ var _shot_taken := false
 var _camera_focus := Vector3.ZERO
 var _max_planted_error := 0.0
 var _max_contact_error := 0.0
+var _max_grip_error := 0.0
+## Frames whose solve used every iteration allowed, and those of them with a goal level unmet.
+var _at_max_iterations := 0
+var _unmet_levels := 0
 
 
 func _ready() -> void:
@@ -102,7 +114,8 @@ func _ready() -> void:
 		targets[bone] = _make_marker(bone)
 		_bones[bone] = skeleton.find_bone(bone)
 	body = BodyTargets.new(skeleton)
-	_make_ik()
+	_relax()
+	use_ik_body(IKBody.new())
 	toes = ToesOnGround.new()
 	toes.name = "ToesOnGround"
 	toes.body = body
@@ -114,50 +127,50 @@ func _ready() -> void:
 	lap = lap_state(time)
 	_place_character()
 	_camera_focus = Vector3(lap["x"], 1.25, 0.0)
-	mode_label.text = ("IKBody: one solve for the whole body, feet first (priority 1)" if ik_body != null
-			else "IKBody not available in this build: a GDScript stand-in\n(two-bone limbs, a crude forward bend) poses the body")
+	mode_label.text = "IKBody: one solve for the whole body, feet first (priority 1)"
 	if options["demo_seconds"] > 0.0:
-		print("character: %s, %d bones, %s s of simulated time" % [
-				"IKBody" if ik_body != null else "IKBody not available (stand-in: two-bone limbs, a crude forward bend)",
-				skeleton.get_bone_count(), options["demo_seconds"]])
+		print("character: IKBody, %d bones, %s s of simulated time" % [skeleton.get_bone_count(), options["demo_seconds"]])
 
 
-## IKBody when the class exists: setup_humanoid() makes the effectors, which get their targets by
-## bone name, the priorities and weights of EFFECTORS and a floating root (the hips move too).
-func _make_ik() -> void:
-	if ClassDB.class_exists("IKBody"):
-		use_ik_body(ClassDB.instantiate("IKBody"))
-	else:
-		standin = StandIn.new()
-		standin.name = "StandInIK"
-		standin.targets = targets
-		skeleton.add_child(standin)
+## Poses the skeleton in the RELAXED stance (its bone poses, not its rests: what an animation
+## would set). IKBody starts from it each frame and keeps the freedom the targets leave near it.
+func _relax() -> void:
+	var globals := {}
+	for i in skeleton.get_bone_count():
+		var parent := skeleton.get_bone_parent(i)
+		var local := skeleton.get_bone_rest(i).basis
+		var name := skeleton.get_bone_name(i)
+		var turn := Basis()
+		if RELAXED.has(name):
+			turn = Basis(RELAXED[name][0], deg_to_rad(RELAXED[name][1]))
+		var parent_global: Basis = globals[parent] if parent >= 0 else Basis()
+		globals[i] = turn * parent_global * local
+		if RELAXED.has(name):
+			skeleton.set_bone_pose_rotation(i, (parent_global.inverse() * globals[i]).get_rotation_quaternion())
 
 
-## Puts `node` (an IKBody) under the skeleton and wires it: setup_humanoid(), a floating root,
+## Puts `node` under the skeleton and wires it: setup_humanoid() (root bone Hips, floating),
 ## each effector's target, priority and weights by bone name; effectors this scene has no target
 ## for are disabled.
-func use_ik_body(node: Node) -> void:
+func use_ik_body(node: IKBody) -> void:
 	ik_body = node
 	ik_body.name = "IKBody"
 	skeleton.add_child(ik_body)
-	ik_body.call("setup_humanoid")
-	ik_body.set("floating_root", true)
-	var effectors: Array = ik_body.get("effectors")
+	ik_body.setup_humanoid()
 	var found := []
-	for effector: Resource in effectors:
-		var bone := str(effector.get("bone_name"))
+	for effector: IKBodyEffector in ik_body.effectors:
+		var bone := str(effector.bone_name)
 		if EFFECTORS.has(bone):
 			var e: Array = EFFECTORS[bone]
-			effector.set("target", ik_body.get_path_to(targets[bone]))
-			effector.set("priority", e[0])
-			effector.set("position_weight", e[1])
-			effector.set("rotation_weight", e[2])
-			effector.set("enabled", true)
+			effector.target = ik_body.get_path_to(targets[bone])
+			effector.priority = e[0]
+			effector.position_weight = e[1]
+			effector.rotation_weight = e[2]
+			effector.enabled = true
 			found.append(bone)
 		else:
-			effector.set("enabled", false)  # no target for it in this scene
-	ik_body.set("effectors", effectors)
+			effector.enabled = false  # no target for it in this scene
+	ik_body.effectors = ik_body.effectors
 	if toes != null:
 		skeleton.move_child(toes, -1)  # after the IK
 	for bone in EFFECTORS:
@@ -323,6 +336,7 @@ func _pick_up(tau: float) -> void:
 		body.reach_weight = 0.0
 		body.crouch = 0.0
 		body.lean_back = 0.0
+		body.pelvis_tilt = 0.0
 		body.look_at_point = orb.global_position
 		return
 	var reach := smoothstep(0.3, 2.0, tau)
@@ -342,6 +356,7 @@ func _pick_up(tau: float) -> void:
 	var down := clampf(reach - lift + lower - release, 0.0, 1.0)
 	body.crouch = CROUCH * down
 	body.lean_back = CROUCH_BACK * down
+	body.pelvis_tilt = PELVIS_TILT * down
 	body.look_at_point = c if tau < 3.9 or tau > 4.5 else orb.global_position
 
 
@@ -386,13 +401,9 @@ func _unhandled_input(event: InputEvent) -> void:
 
 # ------------------------------------------------------------------ measuring
 
-## Microseconds the last body solve took (IKBody's report, or the stand-in's own clock).
+## Microseconds the last body solve took (IKBody's typed getter: no Dictionary per frame).
 func last_usec() -> float:
-	if ik_body != null:
-		if ik_body.has_method("get_last_usec"):
-			return float(ik_body.call("get_last_usec"))
-		return float((ik_body.call("get_last_result") as Dictionary).get("microseconds", NAN))
-	return standin.last_usec if standin != null else NAN
+	return ik_body.get_last_usec()
 
 
 func _hud_text() -> String:
@@ -408,7 +419,7 @@ func _hud_text() -> String:
 		var err := "%5.1f°" % rad_to_deg(rotation_errors.get(bone, NAN)) if bone == "Head" \
 				else "%5.1f mm" % (1000.0 * float(position_errors.get(bone, NAN)))
 		lines.append("%-11s  %d   %s%s" % [bone, EFFECTORS[bone][0], err, what])
-	lines.append("%.0f µs per character" % last_usec())
+	lines.append("%.0f µs per character, %d iterations" % [last_usec(), ik_body.get_last_iterations()])
 	return "\n".join(lines)
 
 
@@ -444,11 +455,20 @@ func _on_skeleton_updated() -> void:
 				var bone := "LeftFoot" if i == 0 else "RightFoot"
 				stats.add("planted", position_errors[bone])
 		stats.add("hands", 0.5 * (position_errors["LeftHand"] + position_errors["RightHand"]))
-		if lap["phase"] == "pick" and lap["tau"] >= GRIP[0] and lap["tau"] <= GRIP[1]:
+		if gripping():
 			stats.add("grip", maxf(position_errors["LeftHand"], position_errors["RightHand"]))
 		stats.add("head", rotation_errors["Head"])
 		stats.add("hips", position_errors["Hips"])
 		stats.add("micros", last_usec())
+		stats.add("iterations", ik_body.get_last_iterations())
+	if ik_body.get_last_iterations() >= ik_body.max_iterations:
+		_at_max_iterations += 1
+		for level in range(1, 5):
+			if not ik_body.is_last_level_met(level):
+				_unmet_levels += 1
+				break
+	if gripping():
+		_max_grip_error = maxf(_max_grip_error, maxf(position_errors["LeftHand"], position_errors["RightHand"]))
 	for i in 2:
 		var foot := body.feet[i]
 		if not foot.swinging:
@@ -460,11 +480,16 @@ func _on_skeleton_updated() -> void:
 				_max_contact_error = maxf(_max_contact_error, absf(foot.contact.y - Course.height_at(x)))
 	if options["demo_seconds"] > 0.0 and time >= _next_report:
 		_next_report += 1.0
-		print("character t=%2.0f s, frame %d: %s | %s | planted feet %.2f mm mean | hands %.1f mm | head %.2f° | hips %.1f mm | %d landings | %.0f µs per character" % [
-				time - _start_time, _run.count("hips"), "IKBody" if ik_body != null else "stand-in", _phase_text(), 1000.0 * _second.mean("planted"),
+		print("character t=%2.0f s, frame %d: %s | planted feet %.2f mm mean | hands %.1f mm | head %.2f° | hips %.1f mm | %d landings | %.0f µs, %.1f iterations per character" % [
+				time - _start_time, _run.count("hips"), _phase_text(), 1000.0 * _second.mean("planted"),
 				1000.0 * _second.mean("hands"), rad_to_deg(_second.mean("head")), 1000.0 * _second.mean("hips"),
-				landings, _second.mean("micros")])
+				landings, _second.mean("micros"), _second.mean("iterations")])
 		_second.clear()
+
+
+## The hands hold the crate on the floor (GRIP s into the pick-up).
+func gripping() -> bool:
+	return lap.get("phase", "") == "pick" and lap["tau"] >= GRIP[0] and lap["tau"] <= GRIP[1]
 
 
 static func _far_from_edges(x: float) -> bool:
@@ -478,10 +503,9 @@ static func _far_from_edges(x: float) -> bool:
 
 
 ## PASS: the feet touched down at least once a second of walking, every planted foot stayed within
-## PLANTED_TOLERANCE of its ground contact (the IK's job), every contact sat on the course's
-## surface within 1 mm (the ray casts' job), and with IKBody the hands held the crate's grips
-## within GRIP_TOLERANCE (mean) if the run got there. Without IKBody the stand-in's legs are
-## analytic, so the feet check then says the hips were low enough for both feet to reach.
+## PLANTED_TOLERANCE of its ground contact, every contact sat on the course's surface within 1 mm
+## (the ray casts' job), and, if the run got there, both hands held the crate's grips within
+## GRIP_TOLERANCE while it stood on the floor (the worst frame).
 func _finish() -> void:
 	_finished = true
 	var frames := _run.count("hips")
@@ -495,13 +519,14 @@ func _finish() -> void:
 		why = "a planted foot was %.1f mm off its ground contact (> %.0f mm)" % [1000.0 * _max_planted_error, 1000.0 * PLANTED_TOLERANCE]
 	elif not (_max_contact_error <= 1e-3):
 		why = "a ground contact was %.2f mm off the course's surface" % (1000.0 * _max_contact_error)
-	elif ik_body != null and _run.count("grip") > 0 and not (_run.mean("grip") <= GRIP_TOLERANCE):
-		why = "the hands were %.1f mm off the crate's grips (> %.0f mm)" % [1000.0 * _run.mean("grip"), 1000.0 * GRIP_TOLERANCE]
-	var who := "IKBody" if ik_body != null else "IKBody not available, stand-in"
-	print("character summary: %d frames, %d landings, planted feet %.3f mm mean / %.3f mm max, hands %.1f mm (at the grips %s), head %.2f°, hips %.1f mm, %.0f µs per character (%s)" % [
+	elif _run.count("grip") > 0 and not (_max_grip_error <= GRIP_TOLERANCE):
+		why = "a hand was %.1f mm off the crate's grip (> %.0f mm)" % [1000.0 * _max_grip_error, 1000.0 * GRIP_TOLERANCE]
+	print("character summary: %d frames, %d landings, planted feet %.3f mm mean / %.3f mm max, hands %.1f mm (at the grips %s), head %.2f°, hips %.1f mm, %.0f µs and %.1f iterations per character, %d frames at max_iterations (%d of them with a level unmet)" % [
 			frames, landings, 1000.0 * _run.mean("planted"), 1000.0 * _max_planted_error, 1000.0 * _run.mean("hands"),
-			"%.1f mm" % (1000.0 * _run.mean("grip")) if _run.count("grip") > 0 else "not reached",
-			rad_to_deg(_run.mean("head")), 1000.0 * _run.mean("hips"), _run.mean("micros"), who])
-	print("demo: PASS character (%s): %d landings, planted feet within %.2f mm of their targets" % [who, landings, 1000.0 * _max_planted_error]
-			if why == "" else "demo: FAIL character (%s): %s" % [who, why])
+			"%.2f mm max" % (1000.0 * _max_grip_error) if _run.count("grip") > 0 else "not reached",
+			rad_to_deg(_run.mean("head")), 1000.0 * _run.mean("hips"), _run.mean("micros"), _run.mean("iterations"),
+			_at_max_iterations, _unmet_levels])
+	print("demo: PASS character: %d landings, planted feet within %.2f mm of their targets%s" % [landings, 1000.0 * _max_planted_error,
+			", hands within %.2f mm of the grips" % (1000.0 * _max_grip_error) if _run.count("grip") > 0 else ""]
+			if why == "" else "demo: FAIL character: %s" % why)
 	get_tree().quit(0 if why == "" else 1)

@@ -730,7 +730,13 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     return false;
   }
 
-  // Poles: the start pose's limb planes turned toward them.
+  // The posture task pulls the freedom the effectors leave toward the incoming (animated) pose,
+  // poles applied: the smallest correction of the animation. Never toward the last solution: that
+  // would keep whatever bend an earlier frame needed (a reach's spine, a crouch's pelvis) for as
+  // long as nothing else moves it (test_ik_body::reach_and_return_leaves_no_bend_behind).
+  posture_ = anim_params_;
+  const bool warm = params_ != anim_params_;
+  // Poles: the start pose's limb planes turned toward them (the posture's too).
   const gdx::Node self = gdx::Node::unchecked(owner_);
   for (const Slot& slot : slots_) {
     if (slot.pole_end < 0 || !slot.effector->is_enabled()) continue;
@@ -749,8 +755,10 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
                      "back.");
       continue;
     }
-    mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, params_.data(), workspace_);
+    mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, posture_.data(), workspace_);
+    if (warm) mapping_.swivel_toward_pole(slot.pole_end, pole_in_tree, params_.data(), workspace_);
   }
+  if (!warm) params_ = posture_;
 
   // The animated effector poses: what an effector with influence < 1 blends from.
   const Tree& tree = mapping_.tree();

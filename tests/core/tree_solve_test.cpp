@@ -195,6 +195,34 @@ TEST(TreeSolve, PostureTaskResolvesRedundancyTowardThePreferredPose) {
   EXPECT_EQ(nearer, trials);
 }
 
+// A start that already meets the goals (the last frame's solution, warm) but lies far from the
+// posture: the posture steps drift the goals by their square; the solve takes that drift back
+// (the second-order correction) instead of refusing the step and stopping where it started.
+TEST(TreeSolve, PostureMovesOnFromAStartThatAlreadyMeetsTheGoals) {
+  const Tree t = test::make_humanoid(false);
+  std::mt19937 rng(5);
+  TreeWorkspace ws(t, 4);
+  SolverOptions o;
+  o.max_iterations = 200;
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  const std::vector<double> stiffness(size_t(t.dof_count()), 0.1);  // IKBody's
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::VectorXd start = test::random_tree_params(t, rng, 0.8);
+    const std::vector<TreeGoal> goals = pose_goals_at(t, start, {Humanoid::kLHand}, 1, false);
+    TreeProblem p;
+    p.goals = goals;
+    p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+    p.posture_stiffness = Span<const double>(stiffness.data(), static_cast<int>(stiffness.size()));
+    Eigen::VectorXd q = start;
+    const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    ASSERT_TRUE(r.usable());
+    EXPECT_LE(r.goal_error[0], o.position_tolerance);
+    EXPECT_GT(r.summary.iterations, 1) << "trial " << trial;
+    EXPECT_LT(q.norm(), 0.5 * start.norm()) << "trial " << trial << ": the posture got nearer: " << start.norm()
+                                            << " -> " << q.norm();
+  }
+}
+
 TEST(TreeSolve, LimitsHoldAtEveryLevel) {
   const Tree t = test::make_humanoid(true);
   std::mt19937 rng(31);

@@ -2,7 +2,7 @@ extends RefCounted
 ## Where a walking humanoid's effectors should be: foot placement on uneven ground, the hips'
 ## height, swinging or reaching hands, and a head that looks. Pure target logic: it writes the
 ## world transforms of the effector targets (Node3D markers), never a bone; a full-body IK node
-## (IKBody) or the stand-in (standin_ik.gd) moves the skeleton onto them.
+## (IKBody) moves the skeleton onto them.
 ##
 ## Each physics frame the caller gives the character's ground frame (`root`: origin on the path at
 ## floor level, basis = heading; the character faces its local +Z, its left on +X) and its
@@ -90,6 +90,9 @@ var reach_weight := 0.0
 ## caller drives both.
 var crouch := 0.0
 var lean_back := 0.0
+## How far the pelvis tilts forward on top of the walk's lean (rad; the caller drives it: a
+## pick-up bends at the hips first, the spine does the rest).
+var pelvis_tilt := 0.0
 ## Measured once from the skeleton's rest.
 var ankle_height := 0.07
 var toe_ahead := 0.13  ## how far the toes' joint is ahead of the ankle (m)
@@ -245,11 +248,12 @@ func _foot_on_ground(foot: Foot, heading: Basis, contact: Vector3, normal: Vecto
 	return Transform3D(tilt * heading * foot.rest_basis, contact + normal * ankle_height)
 
 
-## The hips: the ground frame's heading (leaning forward by WALK_LEAN at walking speed, `gait` = 1)
+## The hips: the ground frame's heading (leaning forward by WALK_LEAN at walking speed, `gait` = 1,
+## and by pelvis_tilt)
 ## and the rest height less a little over the feet's ground, smoothed, then lowered at once so
 ## that both ankle targets stay within LEG_REACH of their hip joints.
 func _update_hips(root: Transform3D, heading: Basis, delta: float, gait: float) -> void:
-	var basis := heading * Basis(Vector3.RIGHT, WALK_LEAN * gait) * hips_rest.basis
+	var basis := heading * Basis(Vector3.RIGHT, WALK_LEAN * gait + pelvis_tilt) * hips_rest.basis
 	var xz := root * Vector3(hips_rest.origin.x, 0.0, hips_rest.origin.z - lean_back)
 	# On the ground under the feet (their mean; a swinging foot's landing), not under the hips:
 	# hips over a step's edge stay level; the reach limit below lowers them when a foot needs it.

@@ -38,7 +38,7 @@ func _process_modification_with_delta(_delta: float) -> void:
 		skeleton.set_bone_pose_rotation(toes, (foot_basis.inverse() * want).get_rotation_quaternion())
 
 
-## A bone's rotation in the skeleton's space from the local poses (see standin_ik.gd's _global).
+## A bone's rotation in the skeleton's space from the local poses (composed down from the root, as the modifiers leave them).
 func _global_basis(skeleton: Skeleton3D, bone: int) -> Basis:
 	var basis := skeleton.get_bone_pose(bone).basis
 	var parent := skeleton.get_bone_parent(bone)

@@ -48,6 +48,8 @@ constexpr double kResidualDamping = 0.1;
 // step). 0.99 and 0.9 cost the body bench the same instructions; 0.99 takes fewer, surer chord
 // steps. Requiring the gain of every level instead cost 5 % more warm (fewer chord steps).
 constexpr double kChordGain = 0.99;
+// The shortest share of the posture step tried once every goal is met (each refused step quarters it).
+constexpr double kMinPostureGain = 1.0 / 64.0;
 // The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
 // damping added first, so this only catches rounding).
 constexpr double kMinPivot2 = 1e-200;
@@ -306,8 +308,12 @@ class HierarchicalStep {
 
   // A second-order correction (Nocedal & Wright, sec. 18.3) from a trial pose whose residual rows
   // are `trial_residual`: the same step with the Jacobian of the pose it came from. A step that
-  // serves a lower level drifts the higher ones by its square (the null space is flat only to
-  // first order); this takes the drift back without a new linearisation.
+  // serves a lower level, or the posture, drifts the levels above it by its square (the null space
+  // is flat only to first order); this takes the drift back without a new linearisation. Without
+  // it (and the shorter posture steps of solve_tree_dls), a posture step from a pose whose goals
+  // are just met pushes them out of tolerance, is refused, and the solve ends there: the posture
+  // never gets back (TreeSolve.PostureMovesOnFromAStartThatAlreadyMeetsTheGoals, test_ik_body::
+  // reach_and_return_leaves_no_bend_behind).
   bool correct(const double* trial_params, const Eigen::VectorXd& trial_residual) {
     return solve(trial_params, trial_residual, 0.0);
   }
@@ -732,7 +738,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
-      if (!trial_ok && !chorded && model.level_count() > 1 &&
+      if (!trial_ok && !chorded && (model.level_count() > 1 || !problem.posture.empty()) &&
           model.correct(ws.params_trial.data(), ws.residual_trial)) {
         // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
         ws.dof_vec_b = ws.params_trial;
@@ -787,7 +793,14 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         model.linearize();
       }
     } else {
-      if (current.all_met()) {  // only the posture was left: it goes as far as the goals allow
+      if (current.all_met()) {
+        // Only the posture was left. Its step drifts the goals by its square: a shorter one may keep
+        // them met; below kMinPostureGain it goes as far as the goals allow.
+        if (!problem.posture.empty() && posture_gain > kMinPostureGain) {
+          posture_gain *= 0.25;
+          tree_forward_kinematics(tree, params, ws);  // ws holds the trial's FK
+          continue;
+        }
         status.reason = TerminationReason::kConverged;
         break;
       }
