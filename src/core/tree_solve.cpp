@@ -241,6 +241,9 @@ Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProble
     if (!goal.empty()) return goal;
   }
   const int n = tree.dof_count();
+  if (problem.posture_iterations < 0)
+    return Message::format("posture_iterations must be >= 0 (0 = until the posture settles), got %d",
+                           problem.posture_iterations);
   if (!problem.posture.empty() && problem.posture.size != n)
     return Message::format("posture has %d entries, the tree has %d DOFs (or leave it empty)", problem.posture.size, n);
   if (!problem.posture_stiffness.empty()) {

@@ -41,6 +41,12 @@ struct TreeProblem {
   // preference). It only uses the freedom the goals leave, so it never costs a goal accuracy.
   Span<const double> posture;
   Span<const double> posture_stiffness;
+  // Once every goal is met, the posture converges linearly (a share of the remaining distance an
+  // iteration): a solve that waits for it to settle (its gain below 1e-3) spends most of its
+  // iterations on it. A tracking caller, whose next frame starts from this one's pose and goes on
+  // toward the posture, can stop after this many more iterations (0 = until it settles). Ignored
+  // without a posture; every goal stays met either way.
+  int posture_iterations = 0;
 };
 
 struct TreeSolveResult {

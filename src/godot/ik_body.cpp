@@ -857,24 +857,27 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     set_invalid_result("IKBody: no effector has a usable target this frame; the animated pose is kept.");
     return false;
   }
-  // Looks with shares: the start pose turned toward each look, a set share per bone (the solver
-  // then only corrects what the other effectors disturb).
+  // Looks with shares: the start pose and the posture (the incoming pose, poles applied) turned
+  // toward each look, a set share per bone (the solver then only corrects what the other effectors
+  // disturb, and the posture keeps the shares).
   for (int g : look_goals_) {
     const Slot& slot = slots_[size_t(goal_slot_[size_t(g)])];
     const Goal& goal = goals_[size_t(g)].goal;
-    mapping_.spread_look(Span<const int>(slot.look_bones.data(), int(slot.look_bones.size())),
-                         Span<const double>(slot.look_shares.data(), int(slot.look_shares.size())), goal.aim_axis,
-                         goal.target_position, params_.data(), workspace_);
+    const Span<const int> bones(slot.look_bones.data(), int(slot.look_bones.size()));
+    const Span<const double> shares(slot.look_shares.data(), int(slot.look_shares.size()));
+    mapping_.spread_look(bones, shares, goal.aim_axis, goal.target_position, posture_.data(), workspace_);
+    mapping_.spread_look(bones, shares, goal.aim_axis, goal.target_position, params_.data(), workspace_);
   }
-  // The posture task keeps the freedom the effectors leave where the start pose has it (the
-  // animation, or the last solution while the animation stands still), poles and looks applied:
-  // the smallest correction, and no drift between frames.
-  posture_ = params_;
 
   TreeProblem problem;
   problem.goals = Span<const TreeGoal>(goals_.data(), goal_count);
   problem.posture = Span<const double>(posture_.data(), int(posture_.size()));
   problem.posture_stiffness = Span<const double>(posture_stiffness_.data(), int(posture_stiffness_.size()));
+  // Tracking frames start from the last solution and go on toward the posture frame after frame, so
+  // a frame stops a few posture steps after its goals are met instead of waiting for the posture to
+  // settle (~20 iterations a frame at stiffness 0.1). `deterministic` frames all start from the
+  // incoming pose: they let it settle, so the output depends on this frame's inputs alone.
+  problem.posture_iterations = deterministic_ ? 0 : kTrackingPostureIterations;
   last_ = solve_tree(resolved_solver(), tree, problem, options_, workspace_, params_);
   has_result_ = true;
   last_goal_count_ = goal_count;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <random>
+#include <string>
 
 #include "alloc_counter.hpp"
 #include "core/solve.hpp"
@@ -221,6 +222,55 @@ TEST(TreeSolve, PostureMovesOnFromAStartThatAlreadyMeetsTheGoals) {
     EXPECT_LT(q.norm(), 0.5 * start.norm()) << "trial " << trial << ": the posture got nearer: " << start.norm()
                                             << " -> " << q.norm();
   }
+}
+
+// posture_iterations: once every goal is met, a tracking solve stops after that many more
+// iterations instead of waiting for the posture to settle (IKBody's stiffness 0.1 took ~20
+// iterations a frame); every goal stays met, and frames that start from the last one's pose get
+// to the settled posture within a few frames.
+TEST(TreeSolve, PostureIterationsCapTheWorkOnceTheGoalsAreMet) {
+  const Tree t = test::make_humanoid(false);
+  std::mt19937 rng(9);
+  TreeWorkspace ws(t, 4);
+  SolverOptions o;
+  o.max_iterations = 200;
+  o.time_cap_usec = 0.0;  // iteration counts, not the machine's load
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  const std::vector<double> stiffness(size_t(t.dof_count()), 0.1);
+  int capped_total = 0, settled_total = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::VectorXd start = test::random_tree_params(t, rng, 0.8);
+    const std::vector<TreeGoal> goals = pose_goals_at(t, start, {Humanoid::kLHand, Humanoid::kRFoot}, 1, false);
+    TreeProblem p;
+    p.goals = goals;
+    p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+    p.posture_stiffness = Span<const double>(stiffness.data(), static_cast<int>(stiffness.size()));
+    Eigen::VectorXd settled = start;
+    const TreeSolveResult rs = solve_tree(SolverKind::kDLS, t, p, o, ws, settled);
+    p.posture_iterations = 2;
+    Eigen::VectorXd q = start;
+    const TreeSolveResult rc = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    ASSERT_TRUE(rs.usable() && rc.usable());
+    EXPECT_EQ(rc.summary.reason, TerminationReason::kConverged) << "trial " << trial;
+    EXPECT_LE(rc.summary.iterations, 5) << "trial " << trial;  // the start meets the goals
+    EXPECT_LT(rc.summary.iterations, rs.summary.iterations) << "trial " << trial;
+    capped_total += rc.summary.iterations;
+    settled_total += rs.summary.iterations;
+    // Tracking: each frame starts from the last one's pose; the posture goes on, as near the
+    // preferred pose as a settled solve gets (the goals' null space is curved: not to the same pose).
+    for (int frame = 0; frame < 30; ++frame) {
+      const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+      ASSERT_EQ(r.summary.reason, TerminationReason::kConverged) << "trial " << trial << " frame " << frame;
+      for (int g = 0; g < r.goal_count; ++g) EXPECT_LE(r.goal_error[g], o.position_tolerance);
+    }
+    EXPECT_LT((q - rest).norm(), 1.05 * (settled - rest).norm() + 1e-6) << "trial " << trial;
+  }
+  EXPECT_LT(3 * capped_total, settled_total);
+  TreeProblem bad;
+  bad.posture_iterations = -1;
+  Eigen::VectorXd q = rest;
+  EXPECT_NE(std::string(solve_tree(SolverKind::kDLS, t, bad, o, ws, q).summary.message.c_str()).find("posture_iterations"),
+            std::string::npos);
 }
 
 TEST(TreeSolve, LimitsHoldAtEveryLevel) {

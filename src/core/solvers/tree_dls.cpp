@@ -673,6 +673,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   double mu = initial_mu;
   double nu = 2.0;
   double posture_gain = 1.0;
+  int met_steps = 0;  // accepted steps in a row that ended with every goal met (posture_iterations)
   int slow_steps = 0, creep_steps = 0;
   // The best pose seen (lexicographically): escapes may leave it, the result returns to it.
   std::copy(params, params + n, ws.params_best.data());
@@ -770,7 +771,9 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       }
       mu = std::max(mu / 3.0, o.dls_min_damping);
       nu = 2.0;
-      const bool posture_settled = problem.posture.empty() || gain < 1e-3;
+      met_steps = current.all_met() ? met_steps + 1 : 0;
+      const bool posture_settled = problem.posture.empty() || gain < 1e-3 ||
+                                   (problem.posture_iterations > 0 && met_steps > problem.posture_iterations);
       if (current.all_met() && posture_settled) {
         status.reason = TerminationReason::kConverged;
         break;
@@ -796,7 +799,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (current.all_met()) {
         // Only the posture was left. Its step drifts the goals by its square: a shorter one may keep
         // them met; below kMinPostureGain it goes as far as the goals allow.
-        if (!problem.posture.empty() && posture_gain > kMinPostureGain) {
+        if (!problem.posture.empty() && posture_gain > kMinPostureGain &&
+            !(problem.posture_iterations > 0 && met_steps > problem.posture_iterations)) {
           posture_gain *= 0.25;
           tree_forward_kinematics(tree, params, ws);  // ws holds the trial's FK
           continue;

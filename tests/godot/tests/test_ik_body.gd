@@ -852,7 +852,9 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 	var bend_far := _angle((far["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
 	check(bend_far > bend_before + 0.2, "the far reach bends the spine: %.4f -> %.4f rad" % [bend_before, bend_far])
 	target.position = near
-	for i in 5:
+	# A tracking frame takes IKBody.kTrackingPostureIterations posture steps once its goals are met
+	# (a share of the way back each), so the spine gets back over a few frames, not in one.
+	for i in 12:
 		await process_frame
 	var after := await _capture(skel, body)
 	check_le(_origin(skel, after, "LeftHand").distance_to(near), body.tolerance + FLOAT_SLACK, "the hand is back (m)")
