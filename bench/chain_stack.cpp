@@ -24,7 +24,7 @@ class ChainStack : public BodySolver {
       }
       b.set_tip_offset(m.effectors[spec.effector].offset_m);
       chains_.emplace_back();
-      build_error_ = b.build(chains_.back()).c_str();
+      build_error_ = b.build(chains_.back()).message.c_str();
       if (!build_error_.empty()) build_error_ = spec.name + ": " + build_error_;
       workspaces_.emplace_back(chains_.back(), 2);
       params_.emplace_back(Eigen::VectorXd::Zero(3 * static_cast<int>(spec.joints.size())));

@@ -78,7 +78,7 @@ Chain make_hinge_chain(int n, bool planar = false, double link = 1.0) {
   }
   b.set_tip_offset(glm::dvec3(0, link, 0));
   Chain c;
-  const ikchain::Message m = b.build(c);
+  const ikchain::Message m = b.build(c).message;
   if (!m.empty()) {
     std::fprintf(stderr, "chain build failed: %s\n", m.c_str());
     std::exit(2);
@@ -466,7 +466,7 @@ std::vector<LimitedArm> limited_arms() {
 
 Chain build_or_exit(const ikchain::ChainBuilder& b, const char* name) {
   Chain c;
-  const ikchain::Message m = b.build(c);
+  const ikchain::Message m = b.build(c).message;
   if (!m.empty()) {
     std::fprintf(stderr, "limited arm %s: %s\n", name, m.c_str());
     std::exit(2);

@@ -143,7 +143,7 @@ inline ikchain::Message build_ikchain(const RobotDescription& robot, ikchain::Ch
     b.add_joint(j);
   }
   b.set_tip_frame(robot.tool_translation, robot.tool_rotation);
-  return b.build(out);
+  return b.build(out).message;
 }
 
 // The KDL chain from the URDF joints as written (fixed joints are KDL::Joint::None segments),

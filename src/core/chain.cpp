@@ -25,21 +25,22 @@ double bone_reach(JointType type, const JointLimits& limits, const glm::dvec3& o
 }  // namespace
 
 BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char* offset_name, const char* axis_name) {
-  auto fail = [&](const char* field, const Message& m) {
+  auto fail = [&](const char* field, const Message& reason) {
     BuildError e;
     e.joint = i;
     e.field = field;
-    e.message = m;
+    e.reason = reason;
+    e.message = Message::format("joint %d: %s", i, reason.c_str());
     return e;
   };
   if (!within_magnitude(j.offset_translation))
     return fail(offset_name,
-                Message::format("joint %d: %s (%g, %g, %g) must be finite, each component within "
-                                "+-%g m", i, offset_name, j.offset_translation.x, j.offset_translation.y, j.offset_translation.z,
+                Message::format("%s (%g, %g, %g) must be finite, each component within "
+                                "+-%g m", offset_name, j.offset_translation.x, j.offset_translation.y, j.offset_translation.z,
                                 kMaxMagnitude));
   const double rest_len = scaled_length(j.rest_rotation);
   if (!std::isfinite(rest_len) || rest_len < 1e-9)
-    return fail("rest_rotation", Message::format("joint %d: rest_rotation must be a finite non-zero quaternion", i));
+    return fail("rest_rotation", Message::format("rest_rotation must be a finite non-zero quaternion"));
   JointLimits l = j.limits;
   // The axis a joint type does not use is stored as its default, so the chain holds no NaN.
   glm::dvec3 axis(0.0, 0.0, 1.0);
@@ -49,45 +50,45 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
     const double len = scaled_length(axis);
     if (!std::isfinite(len) || len < 1e-9)
       return fail(axis_name,
-                  Message::format("joint %d: %s (the slide axis) must be a finite non-zero vector", i, axis_name));
+                  Message::format("%s (the slide axis) must be a finite non-zero vector", axis_name));
     axis /= len;
     if (!l.has_hinge_limit || !within_magnitude(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
       return fail("limits.hinge_min",
-                  Message::format("joint %d: a prismatic joint needs has_hinge_limit with finite hinge_min <= "
-                                  "hinge_max (its slide range, m)", i));
+                  Message::format("a prismatic joint needs has_hinge_limit with finite hinge_min <= "
+                                  "hinge_max (its slide range, m)"));
   } else if (j.type == JointType::kHinge) {
     axis = j.hinge_axis;
     l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
     const double len = scaled_length(axis);
     if (!std::isfinite(len) || len < 1e-9)
-      return fail(axis_name, Message::format("joint %d: %s must be a finite non-zero vector", i, axis_name));
+      return fail(axis_name, Message::format("%s must be a finite non-zero vector", axis_name));
     axis /= len;
     if (l.has_hinge_limit) {
       if (!std::isfinite(l.hinge_min) || !std::isfinite(l.hinge_max))
-        return fail("limits.hinge_min", Message::format("joint %d: hinge_min/hinge_max must be finite", i));
+        return fail("limits.hinge_min", Message::format("hinge_min/hinge_max must be finite"));
       if (l.hinge_min > l.hinge_max)
         return fail("limits.hinge_min",
-                    Message::format("joint %d: hinge_min (%g) > hinge_max (%g)", i, l.hinge_min, l.hinge_max));
+                    Message::format("hinge_min (%g) > hinge_max (%g)", l.hinge_min, l.hinge_max));
     }
   } else if (j.type == JointType::kBall) {
     const double len = scaled_length(l.twist_axis);
     if (!std::isfinite(len) || len < 1e-9)
       return fail("limits.twist_axis",
-                  Message::format("joint %d: limits.twist_axis must be a finite non-zero vector", i));
+                  Message::format("limits.twist_axis must be a finite non-zero vector"));
     l.twist_axis /= len;
     if (l.has_cone_limit && !(l.cone_angle >= 0.0 && l.cone_angle <= so3::kPi))
       return fail("limits.cone_angle",
-                  Message::format("joint %d: cone_angle must be in [0, pi], got %g", i, l.cone_angle));
+                  Message::format("cone_angle must be in [0, pi], got %g", l.cone_angle));
     if (l.has_twist_limit) {
       if (!(l.twist_min >= -so3::kPi && l.twist_max <= so3::kPi))
         return fail("limits.twist_min",
-                    Message::format("joint %d: twist_min/twist_max must be within [-pi, pi]", i));
+                    Message::format("twist_min/twist_max must be within [-pi, pi]"));
       if (l.twist_min > l.twist_max)
         return fail("limits.twist_min",
-                    Message::format("joint %d: twist_min (%g) > twist_max (%g)", i, l.twist_min, l.twist_max));
+                    Message::format("twist_min (%g) > twist_max (%g)", l.twist_min, l.twist_max));
     }
   } else {
-    return fail("type", Message::format("joint %d: unknown joint type", i));
+    return fail("type", Message::format("unknown joint type"));
   }
   out = j;
   out.rest_rotation = glm::normalize(j.rest_rotation / rest_len);
@@ -129,15 +130,24 @@ bool Chain::has_limits(int i) const {
                                             : (l.has_cone_limit || l.has_twist_limit);
 }
 
-Message ChainBuilder::build(Chain& out) const {
+BuildError ChainBuilder::build(Chain& out) const {
   out = Chain();
+  // A problem of the whole chain, not of one joint.
+  auto chain_error = [](const char* field, const Message& reason) {
+    BuildError e;
+    e.field = field;
+    e.message = reason;
+    e.reason = reason;
+    return e;
+  };
   const int n = static_cast<int>(joints_.size());
-  if (n == 0) return Message::format("chain has 0 joints: add at least one joint");
+  if (n == 0) return chain_error("joints", Message::format("chain has 0 joints: add at least one joint"));
   if (!within_magnitude(tip_offset_))
-    return Message::format("tip_offset (%g, %g, %g) must be finite, each component within +-%g m", tip_offset_.x,
-                           tip_offset_.y, tip_offset_.z, kMaxMagnitude);
+    return chain_error("tip_offset",
+                       Message::format("tip_offset (%g, %g, %g) must be finite, each component within +-%g m",
+                                       tip_offset_.x, tip_offset_.y, tip_offset_.z, kMaxMagnitude));
   if (!so3::finite(tip_rotation_) || !(scaled_length(tip_rotation_) >= 1e-9))
-    return Message::format("tip_rotation must be a finite non-zero quaternion");
+    return chain_error("tip_rotation", Message::format("tip_rotation must be a finite non-zero quaternion"));
 
   Chain c;
   c.joint_count_ = n;
@@ -150,7 +160,7 @@ Message ChainBuilder::build(Chain& out) const {
   for (int i = 0; i < n; ++i) {
     JointDesc j;
     const BuildError error = normalize_joint(i, joints_[i], j);
-    if (!error.ok()) return error.message;
+    if (!error.ok()) return error;
     const JointLimits& l = j.limits;
     const glm::dvec3& axis = j.hinge_axis;
     Chain::JointRecord& rec = c.joints_[i];
@@ -179,7 +189,8 @@ Message ChainBuilder::build(Chain& out) const {
     if (c.joint_type(i) == JointType::kPrismatic && c.first_prismatic_ < 0) c.first_prismatic_ = i;
     total += c.bone_lengths_[i];
   }
-  if (!(total > 1e-9)) return Message::format("zero-length chain: every bone has length 0");
+  if (!(total > 1e-9))
+    return chain_error("offset_translation", Message::format("zero-length chain: every bone has length 0"));
   c.total_length_ = total;
   for (int i = 0; i < n; ++i) c.any_limits_ = c.any_limits_ || c.has_limits(i);
   {
@@ -192,7 +203,7 @@ Message ChainBuilder::build(Chain& out) const {
     c.rest_tip_ = ws.tip;
   }
   out = std::move(c);
-  return Message();
+  return BuildError();
 }
 
 Message Chain::set_offsets(const glm::dvec3* offset_translations, int count, const glm::dvec3& tip_offset) {

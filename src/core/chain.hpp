@@ -72,11 +72,13 @@ struct JointDesc {
   JointLimits limits;
 };
 
-// A build error as data: the joint, the field and a message saying why.
+// A build error as data: the joint, the field and a message saying why, so a caller that knows
+// the joint by another name (a bone) maps `joint` and `reason` instead of parsing `message`.
 struct BuildError {
-  int joint = -1;          // the offending joint, or -1
-  const char* field = "";  // "offset_translation", "limits.cone_angle", ...
+  int joint = -1;          // the offending joint, or -1 (a chain-wide problem: no joints, tip_offset, ...)
+  const char* field = "";  // "offset_translation", "limits.cone_angle", "tip_offset", ...
   Message message;         // "joint 2: hinge_min (1.5) > hinge_max (0.5)"
+  Message reason;          // the same without the joint: "hinge_min (1.5) > hinge_max (0.5)"
   bool ok() const { return message.empty(); }
 };
 
@@ -100,9 +102,9 @@ class ChainBuilder {
   ChainBuilder& set_tip_frame(const glm::dvec3& tip_offset, const glm::dquat& tip_rotation);
   void clear();
 
-  // Validates every field and fills `out`. On failure `out` is left invalid and the returned
-  // message names the joint and field ("joint 2: hinge_min (1.5) > hinge_max (0.5)").
-  Message build(Chain& out) const;
+  // Validates every field and fills `out`. On failure `out` is left invalid and the returned error
+  // names the joint and field (joint 2, "limits.hinge_min", "joint 2: hinge_min (1.5) > hinge_max (0.5)").
+  BuildError build(Chain& out) const;
 
  private:
   std::vector<JointDesc> joints_;

@@ -81,8 +81,8 @@ bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptio
   evaluate_goals(chain, goals, ws, e);
   compute_jacobian(chain, goals, ws, J);
   ws.gradient.noalias() = J.transpose() * e;
-  const double scale = chain.total_length() * err.combined;
-  return ws.gradient.norm() <= 1e-6 * scale;
+  return stuck::is_stationary(ws.gradient.squaredNorm(), chain.total_length(), err.combined,
+                              stuck::kBestReachStationary);
 }
 
 // The pole as a soft preference (SolverOptions::use_pole), for every solver but two-bone (which

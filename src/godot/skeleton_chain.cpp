@@ -86,11 +86,12 @@ int shape_offsets(Span<const BonePose> poses, int joints, bool extend, const glm
   return non_uniform;
 }
 
-// True when a core build message names a field set in an IKChainJoint (JointSettings; the core
-// spells them as those properties are named), not one that comes from the bones' poses.
-bool names_joint_setting(const char* message) {
-  for (const char* field : {"hinge_axis", "hinge_min", "hinge_max", "cone_angle", "twist_axis", "twist_min", "twist_max"})
-    if (std::strstr(message, field) != nullptr) return true;
+// True when a core build error's field (BuildError::field) is set in an IKChainJoint
+// (JointSettings), not one that comes from the bones' poses (offset_translation, rest_rotation).
+bool is_joint_setting(const char* field) {
+  for (const char* setting : {"hinge_axis", "limits.hinge_min", "limits.hinge_max", "limits.cone_angle",
+                              "limits.twist_axis", "limits.twist_min", "limits.twist_max"})
+    if (std::strcmp(field, setting) == 0) return true;
   return false;
 }
 
@@ -337,17 +338,14 @@ Message SkeletonChain::build_from(const SkeletonChainDesc& desc) {
     builder.add_joint(joints[size_t(i)]);
   }
   builder.set_tip_offset(tip_offset_);
-  if (Message e = builder.build(chain_); !e.empty()) {
-    // The builder names a joint by its index ("joint 1: hinge_min (1.5) > hinge_max (0.5)"); the
+  if (const BuildError e = builder.build(chain_); !e.ok()) {
+    // The builder names a joint by its index (joint 1, "hinge_min (1.5) > hinge_max (0.5)"); the
     // user knows it by its bone, and sets its limits in that bone's IKChainJoint.
-    int joint = -1, rest = 0;
-    if (std::sscanf(e.c_str(), "joint %d: %n", &joint, &rest) == 1 && rest > 0 && joint >= 0 && joint < n) {
-      const char* what = e.c_str() + rest;
-      return Message::format("joint '%s': %s%s", bones_[size_t(joint)].name.c_str(), what,
-                             names_joint_setting(what) ? "; fix it in the bone's IKChainJoint" : "");
-    }
+    if (e.joint >= 0 && e.joint < n)
+      return Message::format("joint '%s': %s%s", bones_[size_t(e.joint)].name.c_str(), e.reason.c_str(),
+                             is_joint_setting(e.field) ? "; fix it in the bone's IKChainJoint" : "");
     return Message::format("cannot build the chain from '%s' to '%s': %s", bones_.front().name.c_str(),
-                           bones_.back().name.c_str(), e.c_str());
+                           bones_.back().name.c_str(), e.message.c_str());
   }
 
   tip_rotation_in_effector_ =

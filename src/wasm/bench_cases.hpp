@@ -48,7 +48,7 @@ inline Message make_hinge_chain(int n, bool planar, double link, Chain& out) {
     b.add_joint(j);
   }
   b.set_tip_offset(glm::dvec3(0, link, 0));
-  return b.build(out);
+  return b.build(out).message;
 }
 
 // Reachable targets: FK tips of uniform random joint vectors in [-pi, pi]^dofs (seeded).

@@ -46,7 +46,7 @@ void WebChain::set_tip(double x, double y, double z) { builder_.set_tip_offset(g
 
 std::string WebChain::build() {
   Chain built;
-  const Message m = builder_.build(built);
+  const Message m = builder_.build(built).message;
   if (!m.empty()) return m.c_str();
   chain_ = built;
   // Sized once here: solves then allocate nothing.

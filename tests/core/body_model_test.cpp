@@ -105,7 +105,7 @@ TEST(BodyModel, LimitCheckAgreesWithTheCoresWithinLimits) {
   b.add_joint(d);
   b.set_tip_offset(glm::dvec3(0, 1, 0));
   ikchain::Chain chain;
-  const ikchain::Message built = b.build(chain);
+  const ikchain::Message built = b.build(chain).message;
   ASSERT_TRUE(built.empty()) << built.c_str();
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-2.0, 2.0);

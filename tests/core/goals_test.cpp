@@ -33,7 +33,7 @@ Chain tool_chain(const glm::dquat& tool_rotation) {
   }
   b.set_tip_frame(glm::dvec3(0.1, 0.4, 0.0), tool_rotation);
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_TRUE(m.empty()) << m.c_str();
   return c;
 }
@@ -69,7 +69,7 @@ TEST(TipFrame, BuildRejectsBadToolRotation) {
   b.add_joint(JointDesc());
   b.set_tip_frame(glm::dvec3(0, 1, 0), glm::dquat(0, 0, 0, 0));
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_NE(std::string(m.c_str()).find("tip_rotation"), std::string::npos) << m.c_str();
   EXPECT_FALSE(c.valid());
 }

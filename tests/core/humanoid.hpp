@@ -103,7 +103,7 @@ inline Chain chain(const std::vector<std::string>& joint_bones, const std::strin
   }
   builder.set_tip_offset(bone(tip).position);
   Chain c;
-  EXPECT_TRUE(builder.build(c).empty());
+  EXPECT_TRUE(builder.build(c).ok());
   return c;
 }
 

@@ -24,7 +24,7 @@ Chain mixed_chain() {
   b.add_joint(ball2);
   b.set_tip_offset(glm::dvec3(0, 0.5, 0));
   Chain c;
-  EXPECT_TRUE(b.build(c).empty());
+  EXPECT_TRUE(b.build(c).ok());
   return c;
 }
 
@@ -160,7 +160,7 @@ TEST(Limits, HingeClampAndBallConeTwistProjection) {
   b.add_joint(ball);
   b.set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
-  ASSERT_TRUE(b.build(c).empty());
+  ASSERT_TRUE(b.build(c).ok());
   std::mt19937 rng(3);
   for (int trial = 0; trial < 200; ++trial) {
     Eigen::VectorXd p(4);
@@ -179,7 +179,7 @@ TEST(Limits, HingeClampAndBallConeTwistProjection) {
 
 TEST(ChainBuilder, RejectsBadInputNamingTheField) {
   Chain c;
-  EXPECT_NE(std::string(ChainBuilder().build(c).c_str()).find("0 joints"), std::string::npos);
+  EXPECT_NE(std::string(ChainBuilder().build(c).message.c_str()).find("0 joints"), std::string::npos);
   EXPECT_FALSE(c.valid());
 
   ChainBuilder b;
@@ -189,17 +189,57 @@ TEST(ChainBuilder, RejectsBadInputNamingTheField) {
   h.limits.hinge_min = 1.5;
   h.limits.hinge_max = 0.5;
   b.add_joint(h).set_tip_offset(glm::dvec3(0, 1, 0));
-  EXPECT_NE(std::string(b.build(c).c_str()).find("hinge_min (1.5) > hinge_max (0.5)"), std::string::npos);
+  EXPECT_NE(std::string(b.build(c).message.c_str()).find("hinge_min (1.5) > hinge_max (0.5)"), std::string::npos);
 
   ChainBuilder z;
   z.add_joint(JointDesc()).add_joint(JointDesc());
-  EXPECT_NE(std::string(z.build(c).c_str()).find("zero-length chain"), std::string::npos);
+  EXPECT_NE(std::string(z.build(c).message.c_str()).find("zero-length chain"), std::string::npos);
 
   ChainBuilder nan;
   JointDesc j;
   j.offset_translation.x = std::nan("");
   nan.add_joint(j).set_tip_offset(glm::dvec3(0, 1, 0));
-  EXPECT_NE(std::string(nan.build(c).c_str()).find("offset_translation"), std::string::npos);
+  EXPECT_NE(std::string(nan.build(c).message.c_str()).find("offset_translation"), std::string::npos);
+}
+
+// The error is data: the joint and field as values, and the reason without the joint, so a caller
+// that names joints by bone (the Godot layer) maps them without parsing the message.
+TEST(ChainBuilder, BuildErrorCarriesJointFieldAndReason) {
+  Chain c;
+  ChainBuilder b;
+  JointDesc ball;
+  JointDesc h;
+  h.type = JointType::kHinge;
+  h.offset_translation = glm::dvec3(0, 1, 0);
+  h.limits.has_hinge_limit = true;
+  h.limits.hinge_min = 1.5;
+  h.limits.hinge_max = 0.5;
+  b.add_joint(ball).add_joint(h).set_tip_offset(glm::dvec3(0, 1, 0));
+  const BuildError e = b.build(c);
+  EXPECT_FALSE(e.ok());
+  EXPECT_EQ(e.joint, 1);
+  EXPECT_STREQ(e.field, "limits.hinge_min");
+  EXPECT_STREQ(e.message.c_str(), "joint 1: hinge_min (1.5) > hinge_max (0.5)");
+  EXPECT_STREQ(e.reason.c_str(), "hinge_min (1.5) > hinge_max (0.5)");
+  EXPECT_FALSE(c.valid());
+
+  const BuildError empty = ChainBuilder().build(c);
+  EXPECT_EQ(empty.joint, -1);
+  EXPECT_STREQ(empty.field, "joints");
+  EXPECT_STREQ(empty.message.c_str(), empty.reason.c_str());
+
+  ChainBuilder tip;
+  tip.add_joint(ball).set_tip_offset(glm::dvec3(std::nan(""), 0, 0));
+  const BuildError t = tip.build(c);
+  EXPECT_EQ(t.joint, -1);
+  EXPECT_STREQ(t.field, "tip_offset");
+
+  ChainBuilder ok;
+  ok.add_joint(ball).set_tip_offset(glm::dvec3(0, 1, 0));
+  const BuildError fine = ok.build(c);
+  EXPECT_TRUE(fine.ok());
+  EXPECT_EQ(fine.joint, -1);
+  EXPECT_TRUE(c.valid());
 }
 
 }  // namespace

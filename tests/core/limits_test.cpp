@@ -16,7 +16,7 @@ namespace {
 // +-30 deg), elbow hinge across the bone ([0, 2.6] rad), wrist ball (cone 50 deg, twist free).
 Chain ball_arm() {
   Chain c;
-  EXPECT_TRUE(bench::ball_arm_builder().build(c).empty());
+  EXPECT_TRUE(bench::ball_arm_builder().build(c).ok());
   return c;
 }
 

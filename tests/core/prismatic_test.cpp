@@ -33,7 +33,7 @@ Chain telescope_arm() {
   b.add_joint(wrist);
   b.set_tip_offset(glm::dvec3(0, 0.3, 0));
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_TRUE(m.empty()) << m.c_str();
   return c;
 }
@@ -137,7 +137,7 @@ TEST(Prismatic, NeedsASlideRange) {
   slide.hinge_axis = glm::dvec3(0, 1, 0);
   b.add_joint(slide).set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_NE(std::string(m.c_str()).find("prismatic"), std::string::npos) << m.c_str();
   EXPECT_FALSE(c.valid());
 }

@@ -63,7 +63,7 @@ TEST(Reasons, InsideTheInnerReachIsUnreachable) {
   j1.offset_translation = glm::dvec3(0, 2, 0);
   b.add_joint(j0).add_joint(j1).set_tip_offset(glm::dvec3(0, 0.5, 0));
   Chain c;
-  ASSERT_TRUE(b.build(c).empty());
+  ASSERT_TRUE(b.build(c).ok());
   Workspace ws(c, 1);
   for (SolverKind kind : kIterativeSolvers) {
     SolverOptions o;

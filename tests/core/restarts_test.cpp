@@ -28,7 +28,7 @@ Chain limited_arm7() {
   }
   b.set_tip_offset(glm::dvec3(0, links[6], 0));
   Chain c;
-  EXPECT_TRUE(b.build(c).empty());
+  EXPECT_TRUE(b.build(c).ok());
   return c;
 }
 
@@ -164,7 +164,7 @@ TEST(Restarts, WrapAHingeStoppedOnAFullTurnBound) {
   b.add_joint(j);
   b.set_tip_offset(glm::dvec3(0, 1, 0));  // tip (-sin q, cos q, 0)
   Chain c;
-  ASSERT_TRUE(b.build(c).empty());
+  ASSERT_TRUE(b.build(c).ok());
   Workspace ws(c, 1);
   const double solution = so3::kPi - 0.05;
   const std::vector<Goal> goals = {Goal::position(glm::dvec3(-std::sin(solution), std::cos(solution), 0))};

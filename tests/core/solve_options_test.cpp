@@ -143,7 +143,7 @@ Chain leg(bool hinge_root = false, bool limited_hip = false) {
   b.add_joint(ankle);
   b.set_tip_offset(glm::dvec3(0, -0.3, 0));
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_TRUE(m.empty()) << m.c_str();
   return c;
 }

@@ -63,13 +63,13 @@ TEST_P(SolveValidity, NonFiniteOrientationAndAim) {
 
 TEST_P(SolveValidity, ZeroJointsAndZeroLengthChain) {
   Chain empty;
-  EXPECT_FALSE(ChainBuilder().build(empty).empty());
+  EXPECT_FALSE(ChainBuilder().build(empty).ok());
   expect_invalid(empty, goals, options, ws, start_params(), "chain is not built");
 
   ChainBuilder zero;
   zero.add_joint(JointDesc()).add_joint(JointDesc());  // every bone of length 0
   Chain zero_chain;
-  EXPECT_NE(std::string(zero.build(zero_chain).c_str()).find("zero-length"), std::string::npos);
+  EXPECT_NE(std::string(zero.build(zero_chain).message.c_str()).find("zero-length"), std::string::npos);
   expect_invalid(zero_chain, goals, options, ws, start_params(), "chain is not built");
 }
 
@@ -82,7 +82,7 @@ TEST_P(SolveValidity, LimitsMinAboveMaxRejectedAtBuild) {
   j.limits.hinge_max = -1.0;
   b.add_joint(j).set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
-  EXPECT_NE(std::string(b.build(c).c_str()).find("hinge_min"), std::string::npos);
+  EXPECT_NE(std::string(b.build(c).message.c_str()).find("hinge_min"), std::string::npos);
   expect_invalid(c, goals, options, ws, start_params(), "chain is not built");
 }
 

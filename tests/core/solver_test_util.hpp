@@ -105,7 +105,7 @@ inline Chain limited_chain(int n, LimitedJoints joints, const LimitRanges& r, Li
   }
   b.set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
-  EXPECT_TRUE(b.build(c).empty());
+  EXPECT_TRUE(b.build(c).ok());
   return c;
 }
 

@@ -25,7 +25,7 @@ inline Chain make_hinge_chain(int n, double link = 1.0) {
   }
   b.set_tip_offset(glm::dvec3(0, link, 0));
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_TRUE(m.empty()) << m.c_str();
   return c;
 }
@@ -49,7 +49,7 @@ inline Chain make_planar_limb(int n, double bend_max = 0.0) {
   }
   b.set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_TRUE(m.empty()) << m.c_str();
   return c;
 }
@@ -65,7 +65,7 @@ inline Chain make_ball_chain(int n, double link = 1.0) {
   }
   b.set_tip_offset(glm::dvec3(0, link, 0));
   Chain c;
-  const Message m = b.build(c);
+  const Message m = b.build(c).message;
   EXPECT_TRUE(m.empty()) << m.c_str();
   return c;
 }

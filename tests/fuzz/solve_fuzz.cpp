@@ -269,7 +269,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const JointDesc& j : joints) builder.add_joint(j);
   builder.set_tip_offset(tip_offset);
   Chain chain;
-  const Message built = builder.build(chain);
+  const Message built = builder.build(chain).message;
   if (!built.empty()) {
     REQUIRE(!chain.valid(), "a failed build left a valid chain");
   } else {

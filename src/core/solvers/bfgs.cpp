@@ -67,8 +67,6 @@ namespace {
 // further, up to kMaxIterationRotation (or options.max_step_angle when set).
 constexpr double kFirstTrialRotation = 1.0;
 constexpr double kMaxIterationRotation = 3.14159265358979323846;
-// Stationary when |grad f| <= this * L * error (dimensionless; L = chain length).
-constexpr double kStationary = 1e-12;
 
 using bfgs::symmetric_product;
 using Trial = bfgs::Trial<GoalErrors>;
@@ -343,11 +341,11 @@ SolverStatus Bfgs::run() {
       status.escapes = escapes_.used();
       return status;
     }
-    const double scale = length * err_.combined;
     ws_.dof_vec_b = ws_.gradient;
     zero_frozen(ws_.dof_vec_b);
-    const double gnorm = ws_.dof_vec_b.norm();
-    if (gnorm <= kStationary * scale) {  // a stationary point with error left
+    const double gnorm2 = ws_.dof_vec_b.squaredNorm();
+    const double gnorm = std::sqrt(gnorm2);
+    if (stuck::is_stationary(gnorm2, length, err_.combined, stuck::kQuasiNewtonStationary)) {  // error left
       if (escape()) continue;
       break;
     }

@@ -88,7 +88,8 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
     return true;
   };
   auto singular_stationary = [&]() {
-    return stuck::is_singular_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm());
+    return stuck::is_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm(),
+                                stuck::kSingularStationary);
   };
   if (singular_stationary()) escape();
 

@@ -412,11 +412,9 @@ class Progress {
     cost_ = measure_goals(chain, goals, ws).cost;
     stall_.reset(cost_);
     escapes_.offer(params, cost_);
-    const int n = chain.joint_count();
-    const bool single_tip = goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
-                            resolve_effector(chain, goals[0].effector) == n;
-    out_of_reach_ = single_tip && glm::length(goals[0].target_position - chain.root_in_base()) >=
-                                      chain.total_length() - options.position_tolerance;
+    // Margin position_tolerance: a target within tolerance of full reach is met by the straight
+    // chain too, so straightening toward it first is right there as well.
+    out_of_reach_ = stuck::tip_beyond_full_reach(chain, goals, options.position_tolerance);
   }
 
   bool out_of_reach() const { return out_of_reach_; }

@@ -521,13 +521,6 @@ inline void make_trial(const Chain& chain, const SolverOptions& o, const double*
   project_to_limits(chain, trial);
 }
 
-// A single tip position goal at or beyond full reach: the pseudo-inverse clamps its target then.
-inline bool target_beyond_reach(const Chain& chain, Span<const Goal> goals) {
-  return goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
-         resolve_effector(chain, goals[0].effector) == chain.joint_count() &&
-         glm::length(goals[0].target_position - chain.root_in_base()) >= chain.total_length();
-}
-
 // Limit-aware steps (an active set; the one mechanism DLS and the pseudo-inverse share, with the
 // predicates BFGS freezes by, hinge_blocked() and ball_blocked() in kinematics.hpp). Projecting a
 // trial pose onto the limits clips every component that pushes a joint resting on a limit further

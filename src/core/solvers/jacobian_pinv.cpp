@@ -101,7 +101,8 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     return true;
   };
   auto singular_stationary = [&]() {
-    return stuck::is_singular_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm());
+    return stuck::is_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm(),
+                                stuck::kSingularStationary);
   };
   if (singular_stationary()) escape();
 
@@ -227,7 +228,10 @@ SolverStatus solve_jacobian_pinv(const Chain& chain, Span<const Goal> goals, con
     // one is solved 100x tighter than asked.
     Goal goal = goals[0];
     SolverOptions o = options;
-    const bool clamped = jacobian::target_beyond_reach(chain, goals);
+    // No margin: only a target at or beyond full reach is clamped onto the full-reach sphere
+    // (clamping one inside it would move the target).
+    constexpr double kClampMargin = 0.0;
+    const bool clamped = stuck::tip_beyond_full_reach(chain, goals, kClampMargin);
     if (clamped) {
       const glm::dvec3 root = chain.root_in_base();
       goal.target_position = root + glm::normalize(goal.target_position - root) * chain.total_length();

@@ -131,13 +131,43 @@ inline bool provably_out_of_reach(const Chain& chain, Span<const Goal> goals, do
   return false;
 }
 
-// A stationary point with error left: the gradient J^T e vanishes (relative to |J| |e|) although
-// the goals are not met, e.g. a straight chain whose target lies on its own line. Every gradient-
-// based step stands still there.
-inline bool is_singular_stationary(double gradient_norm2, double jacobian_norm, double residual_norm) {
-  const double scale = 1e-10 * jacobian_norm * residual_norm;
-  return gradient_norm2 <= scale * scale;
+// The one goal is a position goal on the tip at or beyond full reach, less `margin` (m): the best
+// the chain can do is point straight at it. The single-tip case of the bounds above, for the
+// solvers that change strategy there (the pseudo-inverse clamps the target, CCD and FABRIK
+// straighten toward it first); each caller's margin is named where it calls.
+inline bool tip_beyond_full_reach(const Chain& chain, Span<const Goal> goals, double margin) {
+  return goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
+         resolve_effector(chain, goals[0].effector) == chain.joint_count() &&
+         glm::length(goals[0].target_position - chain.root_in_base()) >= chain.total_length() - margin;
 }
+
+// ------------------------------------------------------------------------------------------------
+// Stationary points: the one test, and each caller's threshold.
+
+// A stationary point with error left: the gradient g = J^T e of the cost |e|^2 / 2 is negligible,
+// |g| <= relative * jacobian_scale * |e|, although the goals are not met (e.g. a straight chain
+// whose target lies on its own line, or a best reach). Every gradient-based step stands still
+// there. jacobian_scale * |e| is the size |g| would have if e were not orthogonal to J's range:
+// jacobian_scale is |J|_F, or L (the chain's length, the largest |J| per unit rotation). Compared
+// squared, as the Jacobian solvers always did (no square root of |g|^2).
+inline bool is_stationary(double gradient_norm2, double jacobian_scale, double residual_norm, double relative) {
+  const double bound = relative * jacobian_scale * residual_norm;
+  return gradient_norm2 <= bound * bound;
+}
+
+// The thresholds differ because the questions do (each was set with its caller; kept as they were):
+// - DLS and the pseudo-inverse, before their first step and after every escape, relative to
+//   |J|_F |e|: only an exact singular point (g at rounding level) must trigger an escape there;
+//   a pose that is merely slow to leave must not.
+constexpr double kSingularStationary = 1e-10;
+// - BFGS (chains and trees), every iteration, relative to L |e|: its line search still makes
+//   progress on very small gradients, so only a gradient at rounding level stops it (or escapes).
+constexpr double kQuasiNewtonStationary = 1e-12;
+// - solve()'s verdict after the solve has stopped (is_best_reach in solve.cpp), relative to L |e|:
+//   the solver stopped where its steps stopped paying (tolerances, the stall rule), not at an exact
+//   stationary point, so the bound is loose (it is asked only when the goals are provably out of
+//   reach, of a chain without limits).
+constexpr double kBestReachStationary = 1e-6;
 
 // ------------------------------------------------------------------------------------------------
 // Full-turn bounds.
@@ -356,7 +386,7 @@ class Escapes {
     const auto J = ws_.jacobian.topRows(m);
     const auto e = ws_.residual.head(m);
     ws_.gradient.noalias() = J.transpose() * e;
-    return is_singular_stationary(ws_.gradient.squaredNorm(), J.norm(), e.norm());
+    return is_stationary(ws_.gradient.squaredNorm(), J.norm(), e.norm(), kSingularStationary);
   }
 
   // params = before + step, projected onto the limits; true when that turned some DOF by more than

@@ -38,7 +38,6 @@ namespace {
 
 constexpr double kFirstTrialRotation = 1.0;  // rad, as bfgs.cpp
 constexpr double kMaxIterationRotation = 3.14159265358979323846;
-constexpr double kStationary = 1e-12;        // |grad f| <= this * total_length * error
 constexpr double kSlowStep = 0.25;           // a quasi-Newton step keeping more of the cost is slow
 
 using Trial = bfgs::Trial<TreeErrors>;
@@ -304,11 +303,11 @@ TreeSolverStatus TreeBfgs::run() {
   for (; it < o_.max_iterations; ++it) {
     if (ws_.deadline.spent()) break;
     if (err_.all_met()) break;
-    const double scale = tree_.total_length() * std::sqrt(2.0 * f_);
     ws_.dof_vec_b = ws_.gradient;
     zero_frozen(ws_.dof_vec_b);
-    const double gnorm = ws_.dof_vec_b.norm();
-    if (gnorm <= kStationary * scale) {
+    const double gnorm2 = ws_.dof_vec_b.squaredNorm();
+    const double gnorm = std::sqrt(gnorm2);
+    if (stuck::is_stationary(gnorm2, tree_.total_length(), std::sqrt(2.0 * f_), stuck::kQuasiNewtonStationary)) {
       if (escape()) continue;
       break;
     }

@@ -68,12 +68,14 @@ inline int goal_dofs(const Tree& tree, const TreeProblem& problem, TreeWorkspace
   return count;
 }
 
-// Escape `number` (1..stuck::kMaxEscapes) from a stuck pose, the tree DLS's rule (tree_dls.cpp):
-// odd escapes move every joint the goals depend on that rests on a bound off it (a hinge half way
-// into its range, then kSecondUnpinFraction; a ball half way back from its cone); even escapes (and
-// odd ones with nothing pinned) kick every such rotation DOF by the fixed golden-angle pattern of
-// stuck::kKickAmplitude. Needs goal_dofs() in ws. False when nothing moved.
-inline bool escape(const Tree& tree, TreeWorkspace& ws, int active, int number, double* params) {
+// Escape `number` (1..stuck::kMaxEscapes) from a stuck pose, every tree solver's (DLS, BFGS, CCD,
+// FABRIK), the chain solvers' (stuck.hpp) in simpler form: odd escapes move every joint among the
+// first `active` of ws.active_dofs that rests on a bound off it (a hinge half way into its range,
+// then kSecondUnpinFraction; a ball half way back from its cone); even escapes (and odd ones with
+// nothing pinned) kick every such rotation DOF by the fixed golden-angle pattern of
+// stuck::kKickAmplitude. Needs ws.active_dofs listing each joint's DOFs together (goal_dofs() or
+// the tree DLS's columns). False when nothing moved.
+inline bool escape(const Tree& tree, const TreeWorkspace& ws, int active, int number, double* params) {
   bool moved = false;
   if (number % 2 == 1) {
     const double toward_other_end = number >= 3 ? stuck::kSecondUnpinFraction : 0.5;

@@ -25,6 +25,7 @@
 #include "core/kinematics.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/stuck.hpp"
+#include "core/solvers/tree_common.hpp"
 #include "core/solvers/tree_solvers.hpp"
 
 namespace ikchain {
@@ -58,11 +59,9 @@ constexpr double kMinPivot2 = 1e-200;
 // step's Gauss-Newton part takes that back (quadratically). A strict phase (factor 1) polishes
 // the higher levels at the end.
 constexpr double kRelaxedTolerances = 100.0;
-// The chain solvers' stall and creep rules and escape sizes (stuck.hpp): one notion of "stuck".
+// The chain solvers' stall and creep rules (stuck.hpp): one notion of "stuck".
 using stuck::kCreepGain;
-using stuck::kKickAmplitude;
 using stuck::kMaxEscapes;
-using stuck::kSecondUnpinFraction;
 using stuck::kStallIterations;
 
 struct Levels {
@@ -608,46 +607,6 @@ bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const do
   });
 }
 
-// Stuck with goals unmet (the stall rule, no acceptable step at any damping, or a creep with a
-// joint on a bound). Escape `number` (1..kMaxEscapes), as the chain solvers' (stuck.hpp) in
-// simpler form: odd escapes move every active joint that rests on a bound off it (a hinge half way
-// into its range, then three quarters; a ball half way back from its cone) - a straight knee on its
-// limit is a minimum no first-order step leaves, and neither is "down" for the hips above it; even
-// escapes (and odd ones with nothing pinned) kick every active DOF by the fixed golden-angle
-// pattern. False when nothing moved.
-bool escape(const Tree& tree, const TreeWorkspace& ws, int columns, int number, double* params) {
-  bool moved = false;
-  if (number % 2 == 1) {
-    const double toward_other_end = number >= 3 ? kSecondUnpinFraction : 0.5;
-    any_limited_joint(tree, ws, columns, [&](int j, int d, int) {
-      const JointLimits& l = tree.limits(j);
-      if (tree.joint_type(j) == JointType::kBall) {
-        if (ball_params_on_boundary(l, params + d)) {
-          for (int k = 0; k < 3; ++k) params[d + k] *= 0.5;
-          moved = true;
-        }
-      } else if (one_dof_blocked(l, params[d], -1.0)) {
-        params[d] = l.hinge_min + toward_other_end * (l.hinge_max - l.hinge_min);
-        moved = true;
-      } else if (one_dof_blocked(l, params[d], 1.0)) {
-        params[d] = l.hinge_max - toward_other_end * (l.hinge_max - l.hinge_min);
-        moved = true;
-      }
-      return false;
-    });
-  }
-  if (!moved) {
-    for (int c = 0; c < columns; ++c) {
-      const int d = ws.active_dofs[c];
-      if (ws.dof_joint[d] < 0) continue;  // the root's translation stays
-      params[d] += kKickAmplitude * std::sin(2.399963 * (c + 1) + (number - 1));
-    }
-    moved = columns > 0;
-  }
-  project_tree_to_limits(tree, params);
-  return moved;
-}
-
 }  // namespace
 
 TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& o,
@@ -689,7 +648,10 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     if (status.escapes >= kMaxEscapes) return false;
     ++status.escapes;
     met_cost = model.level_count() > 1 ? &relaxed : &strict;
-    if (!escape(tree, ws, model.columns(), status.escapes, params)) return false;
+    // Stuck with goals unmet (the stall rule, no acceptable step at any damping, or a creep with a
+    // joint on a bound): the trees' one escape (tree_common.hpp) - a straight knee on its limit is
+    // a minimum no first-order step leaves, and neither is "down" for the hips above it.
+    if (!tree_common::escape(tree, ws, model.columns(), status.escapes, params)) return false;
     tree_forward_kinematics(tree, params, ws);
     current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), nullptr);
     residual = ws.residual.data();
