@@ -220,6 +220,7 @@ def cost_records(res, by_label, work, split):
 # ------------------------------------------------------------------ the full body (bench/godot/body.gd)
 
 BODY_SYSTEMS = "IKBody,IKChain_stack,FABRIK3D_default,FABRIK3D_converge"
+CLIPS_DIR = "/usr/share/assimp/models/BVH"
 
 
 def body_cost_records(res, by_label, work, split):
@@ -269,6 +270,22 @@ def run_body(work, args):
     for tag, det in (("body_stability_warm", "0"), ("body_stability_det_1", "1"), ("body_stability_det_2", "1")):
         stab.append(run_godot(proj, work, "stability", [f"--characters={chars}", f"--frames={frames}",
                                                          f"--deterministic={det}"], script="body.gd", tag=tag))
+    # The CMU clips of the core body bench (bench/body_bench.cpp) replayed through the node: the
+    # ones with CMU's skeleton (Boxing_Toes names its joints otherwise); warm, then deterministic twice.
+    replay = []
+    for clip in (("01_01",) if quick else ("01_01", "01_03")):
+        src = os.path.join(CLIPS_DIR, clip + ".bvh")
+        if not os.path.exists(src):
+            log(f"no {src} (scripts/setup installs Debian's assimp-testmodels): replay skipped")
+            continue
+        clip_json = os.path.join(work, f"clip_{clip}.json")
+        subprocess.run([sys.executable, os.path.join(ROOT, "tools", "bvh_replay.py"), src, clip_json]
+                       + (["--frames", "300"] if quick else []), check=True)
+        runs = [run_godot(proj, work, "replay", [f"--clip={clip_json}", f"--deterministic={det}"], script="body.gd",
+                          tag=f"body_replay_{clip}_{tag}")
+                for tag, det in (("warm", "0"), ("det_1", "1"), ("det_2", "1"))]
+        runs[1]["bit_identical_two_processes"] = runs[1]["sha256_solved_poses"] == runs[2]["sha256_solved_poses"]
+        replay += runs[:2]
     wall_chars = 100 if quick else 1000
     walltime = run_godot(rel, work, "walltime", [f"--characters={wall_chars}"] + (["--blocks=3"] if quick else []),
                          prefix=("taskset", "-c", "0"), script="body.gd", tag="body_walltime")
@@ -286,7 +303,7 @@ def run_body(work, args):
                 shutil.copy(os.path.join(work, c["annotate_file"]), os.path.join(args.out, "godot_" + c["annotate_file"]))
                 c["annotate_file"] = "godot_" + c["annotate_file"]
     body = {"method": BODY_METHOD, "cost": cost, "cost_debug_split": split, "walltime": walltime["records"],
-            "stability": stab[:2],
+            "stability": stab[:2], "replay": replay,
             "deterministic_bit_identical": stab[1]["sha256_solved_poses"] == stab[2]["sha256_solved_poses"]}
     body["verdicts"] = body_verdicts(body)
     return body
@@ -320,14 +337,28 @@ def body_verdicts(body):
                               "main-thread CPU time, scaled from the characters measured)",
                     "characters_measured": w["characters"], "cpu_ms_per_100": w["cpu_ms_per_100_characters"],
                     "met": w["cpu_ms_per_100_characters"] <= 2.5})
+    for r in body.get("replay", []):
+        if r["system"] != "IKBody":
+            continue
+        out.append({"target": f"replay {r['clip']}: success (1 mm, 1 deg) as the core's (100 % warm, tree DLS)",
+                    "success": r["success_rate_1mm_1deg"], "met": r["success_rate_1mm_1deg"] >= 1.0})
+        out.append({"target": f"replay {r['clip']} warm: 0 knee/elbow flips", "flips": r["knee_elbow_flips"],
+                    "met": r["knee_elbow_flips"] == 0})
+        out.append({"target": f"replay {r['clip']} warm: pops on <= 0.1 % of frames", "pops": r["pop_frames"],
+                    "pop_share": r["pop_share"], "worst_m": r["worst_excess_move_m"],
+                    "worst_frame": r["worst_excess_frame"], "met": r["pop_share"] <= 0.001})
+    for r in body.get("replay", []):
+        if "bit_identical_two_processes" in r:
+            out.append({"target": f"replay {r['clip']}: bit-identical with deterministic on (two processes)",
+                        "met": r["bit_identical_two_processes"]})
     warm = next((s for s in body["stability"] if s["system"] == "IKBody"), None)
     if warm:
-        out.append({"target": "0 knee/elbow flips (warm tracking)", "flips": warm["knee_elbow_flips"],
+        out.append({"target": "synthetic tracking: 0 knee/elbow flips (warm)", "flips": warm["knee_elbow_flips"],
                     "met": warm["knee_elbow_flips"] == 0})
-        out.append({"target": "pops (a joint moving >= 5 cm more than the fastest target) on <= 0.1 % of frames",
+        out.append({"target": "synthetic tracking: pops (a joint moving >= 5 cm more than the fastest target) on <= 0.1 % of frames",
                     "pop_share": warm["pop_share"], "worst_m": warm["worst_excess_move_m"],
                     "met": warm["pop_share"] <= 0.001})
-    out.append({"target": "bit-identical output with deterministic on (two processes)",
+    out.append({"target": "synthetic tracking: bit-identical output with deterministic on (two processes)",
                 "met": body["deterministic_bit_identical"]})
     return out
 
@@ -352,6 +383,15 @@ def body_table(body):
                      f"flips {s['knee_elbow_flips']}, pops {s['pop_frames']}/{s['frame_pairs']} (worst "
                      f"{s['worst_excess_move_m'] * 100:.2f} cm)")
     lines.append(f"  deterministic on, two processes: bit-identical = {body['deterministic_bit_identical']}")
+    for r in body.get("replay", []):
+        lines.append(f"  replay {r['clip']} {r['system']:<20} {r['scored_frames']} frames: success (1 mm, 1 deg) "
+                     f"{pct(r['success_rate_1mm_1deg'])} %, worst position error p50/p99/max "
+                     f"{r['worst_position_error_m']['p50'] * 1000:.3g}/{r['worst_position_error_m']['p99'] * 1000:.3g}/"
+                     f"{r['worst_position_error_m']['max'] * 1000:.3g} mm, median it {r['median_iterations']}, flips "
+                     f"{r['knee_elbow_flips']}, pops {r['pop_frames']}/{r['frame_pairs']} (worst "
+                     f"{r['worst_excess_move_m'] * 100:.1f} cm at frame {r['worst_excess_frame']})"
+                     + (f", bit-identical in two processes: {r['bit_identical_two_processes']}"
+                        if "bit_identical_two_processes" in r else ""))
     for v in body["verdicts"]:
         lines.append(f"  [{'met' if v['met'] else 'NOT met'}] {v['target']}")
         extra = {k: v[k] for k in v if k not in ("target", "met")}
@@ -378,6 +418,14 @@ BODY_METHOD = {
     "walltime": "template_release, Godot pinned to one CPU (taskset -c 0), main-thread CPU time "
                 "(/proc/thread-self/schedstat), 1,000 characters, 6 alternating blocks of 8 frames active / inactive; median of the "
                 "differences; scaled to 100 characters",
+    "replay": "tools/bvh_replay.py: the CMU clip (Debian assimp-testmodels, as body_bench.cpp, (1/0.45)*2.54/100 m "
+              "per unit) as a Skeleton3D keeping every BVH joint, the humanoid ones renamed to "
+              "SkeletonProfileHumanoid's names, rest orientations with +Y along the bone and +X the hinge axis; "
+              "targets = the recording's hips, hands, feet and head bone transforms per frame; one IKBody "
+              "(setup_humanoid(), defaults) replays every frame warm (deterministic off), then deterministic "
+              "twice in separate processes; success = hips, hands, feet within 1 mm and feet, head within 1 deg "
+              "(the goals setup_humanoid() gives; hips rotation is soft and not scored); pop = a solved bone "
+              "moving >= 5 cm more than the same joint in the recording between two frames; flips as below",
     "stability": "10 IKBody characters x 240 frames (two motion cycles), read at each skeleton's first "
                  "skeleton_updated of the frame; success = hips, hands and feet within 1 mm and feet, hips and head "
                  "within 1 deg of their targets; flip = a knee or elbow bent > 5 deg whose bend-plane normal turns "

@@ -12,6 +12,8 @@ extends SceneTree
 ##   walltime   --characters=K characters, alternating active / inactive blocks, main-thread CPU time
 ##   stability  --characters=K IKBody characters for --frames=F frames: effector errors, knee/elbow
 ##              flips, pops, and a SHA-256 of every solved bone's pose per frame (--deterministic=1)
+##   replay     --clip=FILE (tools/bvh_replay.py's JSON of a CMU clip): one IKBody character replays
+##              the recording's effector goals; success, flips, pops against the recording, SHA-256
 
 const EFFECTORS := ["Hips", "LeftHand", "RightHand", "LeftFoot", "RightFoot", "Head"]
 ## The stack and FABRIK3D's settings: legs from the hip, arms from the collar, spine to head.
@@ -48,6 +50,8 @@ func _main() -> void:
 			out = await _walltime()
 		"stability":
 			out = await _stability()
+		"replay":
+			out = await _replay()
 		_:
 			push_error("body.gd: --mode must be cost, walltime or stability")
 			quit(2)
@@ -454,4 +458,164 @@ func _stability() -> Dictionary:
 			"effector_errors": summary}
 	print("[GBENCH] body stability %s: flips %d, pops %d / %d (worst %.4f m), level 1 met %.3f, all within 1 mm and 1 deg %.3f, sha %s" % [
 			system, flips, pops, pairs, worst_pop, rec["level1_met_share"], rec["success_share_1mm_1deg"], digest.substr(0, 16)])
+	return rec
+
+
+# ------------------------------------------------------------------ CMU clip replay
+
+func _replay() -> Dictionary:
+	var clip: Dictionary = JSON.parse_string(FileAccess.get_file_as_string(_args["clip"]))
+	var deterministic: bool = _args.get("deterministic", "0") == "1"
+	var frames: int = mini(int(clip["frames"]), int(_args.get("frames", "1000000")))
+	var rig := Node3D.new()
+	rig.name = "R0"
+	var skel := Skeleton3D.new()
+	skel.name = "S"
+	var bones: Array = clip["bones"]
+	for b in bones:
+		skel.add_bone(b["name"])
+	for i in bones.size():
+		var b: Dictionary = bones[i]
+		if int(b["parent"]) >= 0:
+			skel.set_bone_parent(i, int(b["parent"]))
+		var q: Array = b["rotation"]
+		var o: Array = b["origin"]
+		skel.set_bone_rest(i, Transform3D(Basis(Quaternion(q[0], q[1], q[2], q[3])), Vector3(o[0], o[1], o[2])))
+	skel.reset_bone_poses()
+	rig.add_child(skel)
+	for e in EFFECTORS:
+		var t := Node3D.new()
+		t.name = "T_" + e
+		rig.add_child(t)
+	var body := IKBody.new()
+	skel.add_child(body)
+	if not body.setup_humanoid():
+		push_error("body.gd: setup_humanoid() failed on the clip's skeleton")
+		return {}
+	body.deterministic = deterministic
+	for e in body.effectors:
+		e.target = body.get_path_to(rig.get_node("T_" + e.bone_name))
+	body.active = false
+	root.add_child(rig)
+	await process_frame
+	_solved = body.get_body_bones()
+	var hinge_bones := []
+	for h in HINGES:
+		hinge_bones.append([skel.find_bone(h[0]), skel.find_bone(h[1]), skel.find_bone(h[2])])
+	var eff_bones := []
+	for e in EFFECTORS:
+		eff_bones.append(skel.find_bone(e))
+	var state := {"pts": null, "seen": 0}
+	var results := {"success": 0, "scored": 0, "missing": 0, "flips": 0, "bent": 0, "pops": 0, "pairs": 0,
+			"worst": 0.0, "worst_frame": -1, "pos_err": [], "rot_err": [], "iterations": []}
+	var prev_normal := [Vector3.ZERO, Vector3.ZERO, Vector3.ZERO, Vector3.ZERO]
+	var prev_pts = null
+	var hash := HashingContext.new()
+	hash.start(HashingContext.HASH_SHA256)
+	var targets: Array = clip["targets"]
+	var recorded: Array = clip["joint_positions"]
+	var on_update := func():
+		state["seen"] += 1
+		if state["seen"] > 1:
+			return
+		var pts := PackedVector3Array()
+		for i in skel.get_bone_count():
+			pts.append(skel.get_bone_global_pose(i).origin)
+		state["pts"] = pts
+		var bytes := PackedByteArray()
+		for b in _solved:
+			var q := skel.get_bone_pose_rotation(b)
+			var p := skel.get_bone_pose_position(b)
+			bytes.append_array(PackedFloat32Array([q.x, q.y, q.z, q.w, p.x, p.y, p.z]).to_byte_array())
+		hash.update(bytes)
+		state["iterations"] = body.get_last_iterations()
+		state["poses"] = {}
+		for k in EFFECTORS.size():
+			state["poses"][EFFECTORS[k]] = skel.get_bone_global_pose(eff_bones[k])
+	skel.skeleton_updated.connect(on_update)
+	body.active = true
+	for f in frames:
+		var tf: Dictionary = targets[f]
+		for e in EFFECTORS:
+			var v: Array = tf[e]
+			(rig.get_node("T_" + e) as Node3D).transform = Transform3D(
+					Basis(Quaternion(v[3], v[4], v[5], v[6])), Vector3(v[0], v[1], v[2]))
+		state["seen"] = 0
+		await process_frame
+		if state["seen"] == 0:
+			results["missing"] += 1
+			prev_pts = null
+			continue
+		results["iterations"].append(state["iterations"])
+		# Success: hips, hands and feet within 1 mm, feet and head within 1 degree (the goals
+		# setup_humanoid() gives them; the hips' rotation is a soft goal and is reported, not scored).
+		var ok := true
+		var worst_p := 0.0
+		var worst_r := 0.0
+		for e in EFFECTORS:
+			var v: Array = tf[e]
+			var g: Transform3D = state["poses"][e]
+			if e != "Head":
+				var ep := g.origin.distance_to(Vector3(v[0], v[1], v[2]))
+				worst_p = maxf(worst_p, ep)
+				ok = ok and ep <= 1e-3
+			if e in ["LeftFoot", "RightFoot", "Head"]:
+				var dq := (Quaternion(g.basis.orthonormalized()).inverse() * Quaternion(v[3], v[4], v[5], v[6])).normalized()
+				var er := 2.0 * atan2(Vector3(dq.x, dq.y, dq.z).length(), absf(dq.w))
+				worst_r = maxf(worst_r, er)
+				ok = ok and er <= deg_to_rad(1.0)
+		results["pos_err"].append(worst_p)
+		results["rot_err"].append(rad_to_deg(worst_r))
+		results["scored"] += 1
+		if ok:
+			results["success"] += 1
+		var pts: PackedVector3Array = state["pts"]
+		for hi in hinge_bones.size():
+			var h: Array = hinge_bones[hi]
+			var n := (pts[h[1]] - pts[h[0]]).normalized().cross((pts[h[2]] - pts[h[1]]).normalized())
+			if n.length() > sin(deg_to_rad(5.0)):
+				results["bent"] += 1
+				if prev_normal[hi] != Vector3.ZERO and n.normalized().dot(prev_normal[hi]) < 0.0:
+					results["flips"] += 1
+				prev_normal[hi] = n.normalized()
+		# Pops: a solved bone moving >= 5 cm more than the same joint in the recording.
+		if prev_pts != null and f > 0:
+			var r0: Array = recorded[f - 1]
+			var r1: Array = recorded[f]
+			var excess := 0.0
+			for b in _solved:
+				var rec_move := Vector3(r1[3 * b], r1[3 * b + 1], r1[3 * b + 2]).distance_to(
+						Vector3(r0[3 * b], r0[3 * b + 1], r0[3 * b + 2]))
+				excess = maxf(excess, pts[b].distance_to(prev_pts[b]) - rec_move)
+			results["pairs"] += 1
+			if excess > results["worst"]:
+				results["worst"] = excess
+				results["worst_frame"] = f
+			if excess >= POP_M:
+				results["pops"] += 1
+		prev_pts = pts
+	var digest := hash.finish().hex_encode()
+	rig.queue_free()
+	await process_frame
+	var pe: Array = results["pos_err"]
+	var re: Array = results["rot_err"]
+	var it: Array = results["iterations"]
+	pe.sort()
+	re.sort()
+	it.sort()
+	var rec := {"clip": str(clip["source"]).get_file().get_basename(), "system": "IKBody" + ("_deterministic" if deterministic else ""),
+			"frames": frames, "scored_frames": results["scored"], "missing_updates": results["missing"],
+			"solved_bones": _solved.size(),
+			"success_rate_1mm_1deg": float(results["success"]) / maxi(1, results["scored"]),
+			"worst_position_error_m": {"p50": pe[pe.size() / 2], "p99": pe[int(pe.size() * 0.99)], "max": pe[-1]},
+			"worst_rotation_error_deg": {"p50": re[re.size() / 2], "p99": re[int(re.size() * 0.99)], "max": re[-1]},
+			"median_iterations": it[it.size() / 2], "p99_iterations": it[int(it.size() * 0.99)],
+			"knee_elbow_flips": results["flips"], "bent_hinge_frames": results["bent"],
+			"pop_frames": results["pops"], "frame_pairs": results["pairs"],
+			"pop_share": float(results["pops"]) / maxi(1, results["pairs"]),
+			"worst_excess_move_m": results["worst"], "worst_excess_frame": results["worst_frame"],
+			"sha256_solved_poses": digest}
+	print("[GBENCH] replay %s %s: success %.2f%%, flips %d, pops %d / %d (worst %.4f m at frame %d), median it %d, sha %s" % [
+			rec["clip"], rec["system"], 100.0 * rec["success_rate_1mm_1deg"], rec["knee_elbow_flips"], rec["pop_frames"],
+			rec["frame_pairs"], rec["worst_excess_move_m"], rec["worst_excess_frame"], rec["median_iterations"], digest.substr(0, 16)])
 	return rec
