@@ -236,6 +236,9 @@ def body_cost_records(res, by_label, work, split):
         rec = {"system": system, "characters": act["characters"], "frames": act["frames"],
                "instructions_active": i_act, "instructions_inactive": i_ina,
                "per_character_frame": (i_act - i_ina) / n}
+        if act.get("iterations"):
+            rec["mean_solver_iterations"] = act["iterations"] / n
+            rec["per_iteration"] = (i_act - i_ina) / act["iterations"]
         if split and system in ("IKBody", "IKChain_stack"):
             rows, txt = annotate(by_label[system + "|active"])
             name = f"callgrind_body_{system.lower()}.txt"
@@ -369,9 +372,13 @@ def body_table(body):
     if body["cost"]:
         lines.append("  instructions per character-frame, active - inactive, template_release:")
         for c in body["cost"]:
-            lines.append(f"    {c['system']:<20} {kilo(c['per_character_frame']):>10}")
+            lines.append(f"    {c['system']:<20} {kilo(c['per_character_frame']):>10}"
+                         + (f"  ({c['mean_solver_iterations']:.1f} solver iterations per frame, "
+                            f"{kilo(c['per_iteration'])} per iteration)" if c.get("mean_solver_iterations") else ""))
     for c in body["cost_debug_split"]:
-        lines.append(f"  template_debug {c['system']:<14} node {kilo(c['per_character_frame'])} | "
+        lines.append(f"  template_debug {c['system']:<14} "
+                     + (f"({c['mean_solver_iterations']:.1f} it/frame) " if c.get("mean_solver_iterations") else "")
+                     + f"node {kilo(c['per_character_frame'])} | "
                      f"process_modification {kilo(c.get('node_process_modification'))} | core solve "
                      f"{kilo(c.get('core_solve'))}")
     for r in body["walltime"]:

@@ -219,14 +219,20 @@ func _cost() -> Dictionary:
 				move(k)
 				await process_frame
 			marker("warmup")
+			var iterations := 0
 			for f in frames:
 				k += 1
 				move(k)
 				await process_frame
+				# The same calls in both phases (they cancel); in the inactive one they read the last
+				# active frame's count.
+				for r in _rigs:
+					if r["mods"][0] is IKBody:
+						iterations += (r["mods"][0] as IKBody).get_last_iterations()
 			var label := "%s|%s" % [system, phase]
 			marker(label)
 			phases.append({"label": label, "system": system, "phase": phase, "characters": characters,
-					"frames": frames})
+					"frames": frames, "iterations": iterations})
 		scene.queue_free()
 		await process_frame
 		marker("teardown")
