@@ -81,17 +81,18 @@ def check_log(path, what):
         raise SystemExit(f"[bench-godot] the {what} run failed (log {path}):\n{tail}")
 
 
-def run_godot(proj, work, mode, extra, prefix=(), timeout=900):
-    out = os.path.join(work, f"{mode}.json")
-    logp = os.path.join(work, f"{mode}.log")
-    cmd = list(prefix) + [GODOT, "--headless", "--path", proj, "--script", "res://bench/bench.gd", "--",
+def run_godot(proj, work, mode, extra, prefix=(), timeout=900, script="bench.gd", tag=None):
+    tag = tag or mode
+    out = os.path.join(work, f"{tag}.json")
+    logp = os.path.join(work, f"{tag}.log")
+    cmd = list(prefix) + [GODOT, "--headless", "--path", proj, "--script", "res://bench/" + script, "--",
                           f"--mode={mode}", f"--out={out}"] + list(extra)
     t0 = time.time()
     with open(logp, "w") as lf:
         subprocess.run(cmd, cwd=proj, env=godot_env(work, mode), stdout=lf, stderr=subprocess.STDOUT,
                        stdin=subprocess.DEVNULL, timeout=timeout, check=False)
-    check_log(logp, mode)
-    log(f"{mode}: {time.time() - t0:.0f} s")
+    check_log(logp, tag)
+    log(f"{tag}: {time.time() - t0:.0f} s")
     with open(out) as f:
         return json.load(f)
 
@@ -106,7 +107,7 @@ def callgrind_totals(path):
     raise SystemExit(f"[bench-godot] no totals in {path}")
 
 
-def run_cost(proj, work, quick, name, joints, systems):
+def run_cost(proj, work, quick, name, joints, systems, script="bench.gd", extra=None):
     cg_dir = os.path.join(work, name, "callgrind")
     marker_dir = os.path.join(work, name, "markers")
     os.makedirs(cg_dir)
@@ -115,11 +116,13 @@ def run_cost(proj, work, quick, name, joints, systems):
     out = os.path.join(work, name, "cost.json")
     logp = os.path.join(work, name + ".log")
     chains, frames = (8, 4) if quick else (20, 10)
+    if extra is None:
+        extra = [f"--chains={chains}", f"--frames={frames}", f"--joints={joints}"]
     cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", "--dump-before=*symlink*",
            "--callgrind-out-file=" + os.path.join(cg_dir, "cg.out"),
-           GODOT, "--headless", "--path", proj, "--script", "res://bench/bench.gd", "--",
+           GODOT, "--headless", "--path", proj, "--script", "res://bench/" + script, "--",
            "--mode=cost", f"--out={out}", f"--ack={ack}", f"--marker_dir={marker_dir}",
-           f"--chains={chains}", f"--frames={frames}", f"--joints={joints}", f"--systems={systems}"]
+           f"--systems={systems}"] + list(extra)
     t0 = time.time()
     lf = open(logp, "w")
     proc = subprocess.Popen(cmd, cwd=proj, env=godot_env(work, name), stdout=lf, stderr=subprocess.STDOUT,
@@ -212,6 +215,231 @@ def cost_records(res, by_label, work, split):
                 if re.search(r"ikchain|IKChain|gdx::", fn)][:25]
         out.append(rec)
     return out
+
+
+# ------------------------------------------------------------------ the full body (bench/godot/body.gd)
+
+BODY_SYSTEMS = "IKBody,IKChain_stack,FABRIK3D_default,FABRIK3D_converge"
+CLIPS_DIR = "/usr/share/assimp/models/BVH"
+
+
+def body_cost_records(res, by_label, work, split):
+    """Instructions per character-frame = (active - inactive) / (characters x frames); with the
+    template_debug library's symbols, the node's inclusive count and the core solve's inside it."""
+    phases = {p["label"]: p for p in res["phases"]}
+    out = []
+    for system in dict.fromkeys(p["system"] for p in res["phases"]):
+        act, ina = phases[system + "|active"], phases[system + "|inactive"]
+        n = act["characters"] * act["frames"]
+        i_act = callgrind_totals(by_label[system + "|active"])
+        i_ina = callgrind_totals(by_label[system + "|inactive"])
+        rec = {"system": system, "characters": act["characters"], "frames": act["frames"],
+               "instructions_active": i_act, "instructions_inactive": i_ina,
+               "per_character_frame": (i_act - i_ina) / n}
+        if act.get("iterations"):
+            rec["mean_solver_iterations"] = act["iterations"] / n
+            rec["per_iteration"] = (i_act - i_ina) / act["iterations"]
+        if split and system in ("IKBody", "IKChain_stack"):
+            rows, txt = annotate(by_label[system + "|active"])
+            name = f"callgrind_body_{system.lower()}.txt"
+            with open(os.path.join(work, name), "w") as f:
+                f.write(txt)
+            rec["annotate_file"] = name
+
+            def incl(pattern):
+                vals = [c for c, fn in rows if re.search(pattern, fn)]
+                return max(vals) / n if vals else None
+            if system == "IKBody":
+                rec["node_process_modification"] = incl(r"IKBody::process_modification\(")
+                rec["core_solve"] = incl(r"ikchain::solve_tree\(")
+            else:
+                # Five nodes per character: the sum of their calls is the function's inclusive count.
+                rec["node_process_modification"] = incl(r"IKChain::process_modification\(")
+                rec["core_solve"] = incl(r"ikchain::solve\(")
+            rec["top_inclusive"] = [{"per_character_frame": c / n, "function": fn} for c, fn in rows
+                                    if re.search(r"ikchain|IKChain|IKBody|gdx::", fn)][:25]
+        out.append(rec)
+    return out
+
+
+def run_body(work, args):
+    """The full-body records: cost (callgrind, release and debug), wall time (release, pinned),
+    stability and determinism (debug, native; the deterministic run twice in separate processes)."""
+    quick = args.quick
+    proj = make_project(work, "project_body")
+    rel = make_project(work, "project_body_release", release=True)
+    chars, frames = (4, 120) if quick else (10, 240)
+    stab = []
+    for tag, det in (("body_stability_warm", "0"), ("body_stability_det_1", "1"), ("body_stability_det_2", "1")):
+        stab.append(run_godot(proj, work, "stability", [f"--characters={chars}", f"--frames={frames}",
+                                                         f"--deterministic={det}"], script="body.gd", tag=tag))
+    # The CMU clips of the core body bench (bench/body_bench.cpp) replayed through the node: the
+    # ones with CMU's skeleton (Boxing_Toes names its joints otherwise); warm, then deterministic twice.
+    replay = []
+    for clip in (("01_01",) if quick else ("01_01", "01_03")):
+        src = os.path.join(CLIPS_DIR, clip + ".bvh")
+        if not os.path.exists(src):
+            log(f"no {src} (scripts/setup installs Debian's assimp-testmodels): replay skipped")
+            continue
+        clip_json = os.path.join(work, f"clip_{clip}.json")
+        subprocess.run([sys.executable, os.path.join(ROOT, "tools", "bvh_replay.py"), src, clip_json]
+                       + (["--frames", "300"] if quick else []), check=True)
+        runs = [run_godot(proj, work, "replay", [f"--clip={clip_json}", f"--deterministic={det}"], script="body.gd",
+                          tag=f"body_replay_{clip}_{tag}")
+                for tag, det in (("warm", "0"), ("det_1", "1"), ("det_2", "1"))]
+        runs[1]["bit_identical_two_processes"] = runs[1]["sha256_solved_poses"] == runs[2]["sha256_solved_poses"]
+        replay += runs[:2]
+    wall_chars = 100 if quick else 1000
+    walltime = run_godot(rel, work, "walltime", [f"--characters={wall_chars}"] + (["--blocks=3"] if quick else []),
+                         prefix=("taskset", "-c", "0"), script="body.gd", tag="body_walltime")
+    cost, split = [], []
+    if not args.skip_callgrind:
+        extra = ["--characters=4", "--frames=4"] if quick else ["--characters=10", "--frames=10"]
+        res, by_label = run_cost(make_project(work, "project_body_release_cg", release=True), work, quick,
+                                 "body_cost_release", None, BODY_SYSTEMS, script="body.gd", extra=extra)
+        cost = body_cost_records(res, by_label, work, split=False)
+        res, by_label = run_cost(proj, work, quick, "body_cost_debug", None, "IKBody,IKChain_stack",
+                                 script="body.gd", extra=extra)
+        split = body_cost_records(res, by_label, work, split=True)
+        for c in split:
+            if c.get("annotate_file"):
+                shutil.copy(os.path.join(work, c["annotate_file"]), os.path.join(args.out, "godot_" + c["annotate_file"]))
+                c["annotate_file"] = "godot_" + c["annotate_file"]
+    body = {"method": BODY_METHOD, "cost": cost, "cost_debug_split": split, "walltime": walltime["records"],
+            "stability": stab[:2], "replay": replay,
+            "deterministic_bit_identical": stab[1]["sha256_solved_poses"] == stab[2]["sha256_solved_poses"]}
+    body["verdicts"] = body_verdicts(body)
+    return body
+
+
+def body_meta(args):
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT).stdout.strip()
+    cpu = "unknown"
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            cpu = line.split(":", 1)[1].strip()
+            break
+    return {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "commit": commit,
+            "cpu": cpu, "load_end": " ".join(open("/proc/loadavg").read().split()[:3]), "quick": args.quick}
+
+
+def body_verdicts(body):
+    out = []
+    dbg = {c["system"]: c for c in body["cost_debug_split"]}
+    b = dbg.get("IKBody")
+    if b and b.get("core_solve"):
+        ratio = b["per_character_frame"] / b["core_solve"]
+        out.append({"target": "IKBody node <= 1.5x the core solve_tree (template_debug: active - inactive per "
+                              "character-frame / solve_tree inclusive)",
+                    "node": b["per_character_frame"], "core_solve_tree": b["core_solve"], "ratio": ratio,
+                    "met": ratio <= 1.5})
+    wt = {r["system"]: r for r in body["walltime"]}
+    w = wt.get("IKBody")
+    if w:
+        out.append({"target": "100 tracking characters <= 2.5 ms CPU per frame on one core (template_release, "
+                              "main-thread CPU time, scaled from the characters measured)",
+                    "characters_measured": w["characters"], "cpu_ms_per_100": w["cpu_ms_per_100_characters"],
+                    "met": w["cpu_ms_per_100_characters"] <= 2.5})
+    for r in body.get("replay", []):
+        if r["system"] != "IKBody":
+            continue
+        out.append({"target": f"replay {r['clip']}: success (1 mm, 1 deg) as the core's (100 % warm, tree DLS)",
+                    "success": r["success_rate_1mm_1deg"], "met": r["success_rate_1mm_1deg"] >= 1.0})
+        out.append({"target": f"replay {r['clip']} warm: 0 knee/elbow flips", "flips": r["knee_elbow_flips"],
+                    "met": r["knee_elbow_flips"] == 0})
+        out.append({"target": f"replay {r['clip']} warm: pops on <= 0.1 % of frames", "pops": r["pop_frames"],
+                    "pop_share": r["pop_share"], "worst_m": r["worst_excess_move_m"],
+                    "worst_frame": r["worst_excess_frame"], "met": r["pop_share"] <= 0.001})
+    for r in body.get("replay", []):
+        if "bit_identical_two_processes" in r:
+            out.append({"target": f"replay {r['clip']}: bit-identical with deterministic on (two processes)",
+                        "met": r["bit_identical_two_processes"]})
+    warm = next((s for s in body["stability"] if s["system"] == "IKBody"), None)
+    if warm:
+        out.append({"target": "synthetic tracking: 0 knee/elbow flips (warm)", "flips": warm["knee_elbow_flips"],
+                    "met": warm["knee_elbow_flips"] == 0})
+        out.append({"target": "synthetic tracking: pops (a joint moving >= 5 cm more than the fastest target) on <= 0.1 % of frames",
+                    "pop_share": warm["pop_share"], "worst_m": warm["worst_excess_move_m"],
+                    "met": warm["pop_share"] <= 0.001})
+    out.append({"target": "synthetic tracking: bit-identical output with deterministic on (two processes)",
+                "met": body["deterministic_bit_identical"]})
+    return out
+
+
+def body_table(body):
+    lines = ["", "full body in Godot (SkeletonProfileHumanoid reference skeleton; targets on hips, hands, feet, head, "
+             "moving smoothly):"]
+    if body["cost"]:
+        lines.append("  instructions per character-frame, active - inactive, template_release:")
+        for c in body["cost"]:
+            lines.append(f"    {c['system']:<20} {kilo(c['per_character_frame']):>10}"
+                         + (f"  ({c['mean_solver_iterations']:.1f} solver iterations per frame, "
+                            f"{kilo(c['per_iteration'])} per iteration)" if c.get("mean_solver_iterations") else ""))
+    for c in body["cost_debug_split"]:
+        lines.append(f"  template_debug {c['system']:<14} "
+                     + (f"({c['mean_solver_iterations']:.1f} it/frame) " if c.get("mean_solver_iterations") else "")
+                     + f"node {kilo(c['per_character_frame'])} | "
+                     f"process_modification {kilo(c.get('node_process_modification'))} | core solve "
+                     f"{kilo(c.get('core_solve'))}")
+    for r in body["walltime"]:
+        lines.append(f"  walltime {r['system']:<20} {r['characters']} characters: {r['cpu_ms_per_frame']:.2f} ms CPU "
+                     f"per frame = {r['cpu_ms_per_100_characters']:.3f} ms per 100 ({r['wall_ms_per_frame']:.2f} ms wall)")
+    for s in body["stability"]:
+        lines.append(f"  stability {s['system']:<20} {s['characters']}x{s['frames']} frames: all effectors within 1 mm "
+                     f"and 1 deg {pct(s['success_share_1mm_1deg'])} %, level 1 met {pct(s['level1_met_share'])} %, "
+                     f"flips {s['knee_elbow_flips']}, pops {s['pop_frames']}/{s['frame_pairs']} (worst "
+                     f"{s['worst_excess_move_m'] * 100:.2f} cm)")
+    lines.append(f"  deterministic on, two processes: bit-identical = {body['deterministic_bit_identical']}")
+    for r in body.get("replay", []):
+        lines.append(f"  replay {r['clip']} {r['system']:<20} {r['scored_frames']} frames: success (1 mm, 1 deg) "
+                     f"{pct(r['success_rate_1mm_1deg'])} %, worst position error p50/p99/max "
+                     f"{r['worst_position_error_m']['p50'] * 1000:.3g}/{r['worst_position_error_m']['p99'] * 1000:.3g}/"
+                     f"{r['worst_position_error_m']['max'] * 1000:.3g} mm, median it {r['median_iterations']}, flips "
+                     f"{r['knee_elbow_flips']}, pops {r['pop_frames']}/{r['frame_pairs']} (worst "
+                     f"{r['worst_excess_move_m'] * 100:.1f} cm at frame {r['worst_excess_frame']})"
+                     + (f", bit-identical in two processes: {r['bit_identical_two_processes']}"
+                        if "bit_identical_two_processes" in r else ""))
+    for v in body["verdicts"]:
+        lines.append(f"  [{'met' if v['met'] else 'NOT met'}] {v['target']}")
+        extra = {k: v[k] for k in v if k not in ("target", "met")}
+        if extra:
+            lines.append("      " + json.dumps(rounded(extra)))
+    return "\n".join(lines)
+
+
+BODY_METHOD = {
+    "skeleton": "Godot's SkeletonProfileHumanoid: 56 bones, rests = get_reference_pose() (a T-pose); IKBody "
+                "setup_humanoid() (20 solved bones, DLS, defaults)",
+    "targets": "per character c and frame k, w = 2 pi k / 120 + 0.37 c: hips lowered 6-9 cm, swaying 2 cm, yawing "
+               "5 deg; feet lifting 4 cm in turn (rest orientation); hands 25 cm in, 25 cm down, 20 cm forward on "
+               "8 cm circles; head turning +-25 deg and nodding 10 deg (bench/godot/body.gd targets_at)",
+    "systems": "IKBody (one node, the tree); IKChain_stack: five IKChain nodes (legs from the upper leg, arms "
+               "from the collar, spine to head; position targets, defaults); FABRIK3D_default / _converge: one "
+               "FABRIK3D with five settings (the same limbs), Godot's defaults / 64 iterations without angle cap. "
+               "The stack and FABRIK3D cannot move the hips: the script puts the hips bone at the hips target in "
+               "both phases, as an animation would",
+    "per_character_frame": "callgrind Ir: (10 characters x 10 frames with the modifiers active - the same with "
+                           "them inactive) / 100; 5 warm-up frames before each phase",
+    "core_solve": "template_debug library: callgrind inclusive count of ikchain::solve_tree (IKBody) or "
+                  "ikchain::solve (the stack, five calls) in the active phase, per character-frame",
+    "walltime": "template_release, Godot pinned to one CPU (taskset -c 0), main-thread CPU time "
+                "(/proc/thread-self/schedstat), 1,000 characters, 6 alternating blocks of 8 frames active / inactive; median of the "
+                "differences; scaled to 100 characters",
+    "replay": "tools/bvh_replay.py: the CMU clip (Debian assimp-testmodels, as body_bench.cpp, (1/0.45)*2.54/100 m "
+              "per unit) as a Skeleton3D keeping every BVH joint, the humanoid ones renamed to "
+              "SkeletonProfileHumanoid's names, rest orientations with +Y along the bone and +X the hinge axis; "
+              "targets = the recording's hips, hands, feet and head bone transforms per frame; one IKBody "
+              "(setup_humanoid(), defaults) replays every frame warm (deterministic off), then deterministic "
+              "twice in separate processes; success = hips, hands, feet within 1 mm and feet, head within 1 deg "
+              "(the goals setup_humanoid() gives; hips rotation is soft and not scored); pop = a solved bone "
+              "moving >= 5 cm more than the same joint in the recording between two frames; flips as below",
+    "stability": "10 IKBody characters x 240 frames (two motion cycles), read at each skeleton's first "
+                 "skeleton_updated of the frame; success = hips, hands and feet within 1 mm and feet, hips and head "
+                 "within 1 deg of their targets; flip = a knee or elbow bent > 5 deg whose bend-plane normal turns "
+                 "> 90 deg between two frames; pop = a solved bone moving >= 5 cm more than the fastest target moved "
+                 "between the two frames; sha256 over every solved bone's pose rotation and position (float32) "
+                 "of every character and frame, deterministic run twice in separate processes",
+}
 
 
 # ------------------------------------------------------------------ report
@@ -452,6 +680,9 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer chains and frames (pipeline check)")
     ap.add_argument("--skip-callgrind", action="store_true")
     ap.add_argument("--keep", action="store_true", help="keep the temp project and logs")
+    ap.add_argument("--body-only", action="store_true",
+                    help="only the full-body records (bench/godot/body.gd): replace godot.json's 'body' key, "
+                         "keep the rest of an existing godot.json")
     args = ap.parse_args()
 
     for path, what in ((GODOT, "Godot (run scripts/setup)"), (os.path.join(ADDON, "bin", DEBUG_SO),
@@ -462,6 +693,22 @@ def main():
         raise SystemExit("[bench-godot] valgrind not found (scripts/setup installs it)")
     os.makedirs(args.out, exist_ok=True)
     work = tempfile.mkdtemp(prefix="ikchain-godot-bench.")
+    if args.body_only:
+        try:
+            path = os.path.join(args.out, "godot.json")
+            doc = json.load(open(path)) if os.path.exists(path) else {"meta": {}}
+            doc["body"] = run_body(work, args)
+            doc["body"]["meta"] = body_meta(args)
+            with open(path, "w") as f:
+                json.dump(doc, f, indent=1)
+            print(body_table(doc["body"]))
+            log(f"wrote the 'body' key of {path}")
+        finally:
+            if args.keep:
+                log(f"kept {work}")
+            else:
+                shutil.rmtree(work, ignore_errors=True)
+        return
     try:
         proj = make_project(work)
         quick = ["--quick"] if args.quick else []
@@ -507,9 +754,12 @@ def main():
             "walltime": walltime["records"],
         }
         doc["verdicts"] = verdicts(doc)
+        doc["body"] = run_body(work, args)
+        doc["body"]["meta"] = body_meta(args)
         with open(os.path.join(args.out, "godot.json"), "w") as f:
             json.dump(doc, f, indent=1)
         print(table(doc))
+        print(body_table(doc["body"]))
         md = table_md(doc)
         with open(os.path.join(args.out, "godot.md"), "w") as f:
             f.write(md + "\n")
