@@ -4,38 +4,13 @@
 # against the target node's global transform.
 extends "res://lib/ik_test.gd"
 
+const Body := preload("res://lib/body.gd")
+
 ## Float32 slack on top of the tolerance for distances read from Godot's transforms.
 const FLOAT_SLACK := 2e-5
 
 
 # ------------------------------------------------------------------ fixtures
-
-func _humanoid() -> Skeleton3D:
-	var profile := SkeletonProfileHumanoid.new()
-	var skel := Skeleton3D.new()
-	skel.name = "Skeleton"
-	for i in profile.bone_size:
-		skel.add_bone(profile.get_bone_name(i))
-	for i in profile.bone_size:
-		var parent: StringName = profile.get_bone_parent(i)
-		if parent != &"":
-			skel.set_bone_parent(i, skel.find_bone(parent))
-		skel.set_bone_rest(i, profile.get_reference_pose(i))
-	skel.reset_bone_poses()
-	return skel
-
-
-func _effector(bone: String, target: Node3D, priority := 1, position_weight := 1.0,
-		rotation_weight := 0.0) -> IKBodyEffector:
-	var e := IKBodyEffector.new()
-	e.bone_name = bone
-	e.priority = priority
-	e.position_weight = position_weight
-	e.rotation_weight = rotation_weight
-	if target != null:
-		e.target = NodePath("../../" + String(target.name))
-	return e
-
 
 func _pole(e: IKBodyEffector, pole: Node3D) -> IKBodyEffector:
 	e.pole_target = NodePath("../../" + String(pole.name))
@@ -79,7 +54,7 @@ func _capture(skel: Skeleton3D, body: IKBody, idle_ok := false) -> Dictionary:
 ## The global poses of a copy of the humanoid with `rotations` (bone name -> extra local rotation
 ## on top of the rest) applied: the forward kinematics targets are taken from.
 func _posed_globals(rotations: Dictionary) -> Dictionary:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	for bone in rotations:
 		var i := skel.find_bone(bone)
 		skel.set_bone_pose_rotation(i, skel.get_bone_rest(i).basis.get_rotation_quaternion() * rotations[bone])
@@ -131,7 +106,7 @@ func test_hands_feet_and_head_at_once_by_forward_kinematics() -> void:
 		for bone in LIMB_BONES:
 			rotations[bone] = _random_rotation(rng, 0.5)
 		var posed := _posed_globals(rotations)
-		var skel := _humanoid()
+		var skel := Body.humanoid()
 		case_root.add_child(skel)
 		var body := IKBody.new()
 		body.root_bone = "Hips"
@@ -140,7 +115,7 @@ func test_hands_feet_and_head_at_once_by_forward_kinematics() -> void:
 		for bone in names:
 			var t := _target("T_%s_%d" % [bone, trial], posed[bone])
 			var with_rotation: bool = bone.ends_with("Foot")
-			effectors.append(_effector(bone, t, 1, 1.0, 1.0 if with_rotation else 0.0))
+			effectors.append(Body.effector(bone, t, 1, 1.0, 1.0 if with_rotation else 0.0))
 		body.effectors = effectors
 		body.max_iterations = 200
 		skel.add_child(body)
@@ -168,7 +143,7 @@ func test_hands_feet_and_head_at_once_by_forward_kinematics() -> void:
 # Feet at level 1 stay planted while both hands chase targets out of reach at level 2 (the root
 # floats, so the hands could drag the whole body off its feet).
 func test_priorities_feet_hold_while_hands_chase_the_unreachable() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
 	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
@@ -177,10 +152,10 @@ func test_priorities_feet_hold_while_hands_chase_the_unreachable() -> void:
 	body.floating_root = true
 	body.max_iterations = 300
 	body.effectors = [
-		_effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
-		_effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
-		_effector("LeftHand", _target("LH", Transform3D(Basis(), Vector3(3, 2.5, 2))), 2),
-		_effector("RightHand", _target("RH", Transform3D(Basis(), Vector3(-3, 2.5, 2))), 2),
+		Body.effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
+		Body.effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
+		Body.effector("LeftHand", _target("LH", Transform3D(Basis(), Vector3(3, 2.5, 2))), 2),
+		Body.effector("RightHand", _target("RH", Transform3D(Basis(), Vector3(-3, 2.5, 2))), 2),
 	]
 	skel.add_child(body)
 	var cap := await _capture(skel, body)
@@ -197,7 +172,7 @@ func test_priorities_feet_hold_while_hands_chase_the_unreachable() -> void:
 
 # A floating root crouches: the hands reach low in front while the feet stay planted; the hips drop.
 func test_floating_root_crouches_with_feet_planted() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var hips_rest := skel.get_bone_global_pose(skel.find_bone("Hips")).origin
 	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
@@ -208,9 +183,9 @@ func test_floating_root_crouches_with_feet_planted() -> void:
 	body.max_iterations = 300
 	var low := Vector3(0.1, hips_rest.y * 0.45, 0.3)
 	body.effectors = [
-		_effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
-		_effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
-		_effector("LeftHand", _target("LH", Transform3D(Basis(), low)), 2),
+		Body.effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
+		Body.effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
+		Body.effector("LeftHand", _target("LH", Transform3D(Basis(), low)), 2),
 	]
 	skel.add_child(body)
 	var cap := await _capture(skel, body)
@@ -227,7 +202,7 @@ func test_floating_root_crouches_with_feet_planted() -> void:
 # ------------------------------------------------------------------ humanoid set-up
 
 func test_setup_humanoid_from_profile_names() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	skel.add_child(body)
@@ -295,7 +270,7 @@ func test_setup_humanoid_names_missing_bones_and_changes_nothing() -> void:
 # The incoming pose is the animation's (here set by script, as an AnimationPlayer would each frame):
 # an effector with influence 0 leaves it, 1 reaches the target, 0.5 goes halfway.
 func test_influence_per_effector_blends_with_the_animated_pose() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var elbow := skel.find_bone("LeftLowerArm")
 	var animated_rotation := skel.get_bone_rest(elbow).basis.get_rotation_quaternion() * Quaternion(Vector3(1, 0, 0), 0.8)
@@ -306,7 +281,7 @@ func test_influence_per_effector_blends_with_the_animated_pose() -> void:
 	var body := IKBody.new()
 	body.root_bone = "Hips"
 	body.deterministic = true
-	var e := _effector("LeftHand", _target("LH", Transform3D(Basis(), goal)), 1)
+	var e := Body.effector("LeftHand", _target("LH", Transform3D(Basis(), goal)), 1)
 	body.effectors = [e]
 	skel.add_child(body)
 	for influence in [0.0, 0.5, 1.0]:
@@ -339,7 +314,7 @@ func _warnings(body: IKBody) -> String:
 
 
 func _body_with(effectors: Array, root := "Hips") -> Dictionary:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	body.root_bone = root
@@ -351,7 +326,7 @@ func _body_with(effectors: Array, root := "Hips") -> Dictionary:
 func test_hostile_nan_and_inf_targets_keep_a_defined_pose() -> void:
 	var good := _target("Good", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
 	var bad := _target("Bad", Transform3D(Basis(), Vector3(NAN, 0.0, INF)))
-	var rig := _body_with([_effector("LeftHand", good), _effector("RightHand", bad)])
+	var rig := _body_with([Body.effector("LeftHand", good), Body.effector("RightHand", bad)])
 	var skel: Skeleton3D = rig["skeleton"]
 	var body: IKBody = rig["body"]
 	expect_error("effectors\\[1\\].*RightHand.*not finite", 1)
@@ -368,7 +343,7 @@ func test_hostile_nan_and_inf_targets_keep_a_defined_pose() -> void:
 
 func test_hostile_target_freed_while_running() -> void:
 	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
-	var rig := _body_with([_effector("LeftHand", t)])
+	var rig := _body_with([Body.effector("LeftHand", t)])
 	var skel: Skeleton3D = rig["skeleton"]
 	var body: IKBody = rig["body"]
 	var cap := await _capture(skel, body)
@@ -385,18 +360,18 @@ func test_hostile_target_freed_while_running() -> void:
 func test_hostile_configuration_problems_are_named_with_their_fix() -> void:
 	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
 	var cases := [
-		[[_effector("NoSuchBone", t)], "Hips", "'NoSuchBone' is not in the skeleton"],
-		[[_effector("LeftHand", t)], "LeftUpperLeg", "not under root_bone 'LeftUpperLeg'"],
-		[[_effector("LeftHand", t, 0)], "Hips", "priority 0 is out of range 1..4"],
-		[[_effector("LeftHand", t, 9)], "Hips", "priority 9 is out of range 1..4"],
+		[[Body.effector("NoSuchBone", t)], "Hips", "'NoSuchBone' is not in the skeleton"],
+		[[Body.effector("LeftHand", t)], "LeftUpperLeg", "not under root_bone 'LeftUpperLeg'"],
+		[[Body.effector("LeftHand", t, 0)], "Hips", "priority 0 is out of range 1..4"],
+		[[Body.effector("LeftHand", t, 9)], "Hips", "priority 9 is out of range 1..4"],
 		[[], "Hips", "no enabled effector"],
-		[[_effector("LeftHand", t), _effector("LeftHand", t)], "Hips", "names the same bone as effectors\\[0\\]"],
-		[[_effector("LeftHand", t, 1, 0.0, 0.0)], "Hips", "position_weight and rotation_weight are both 0"],
+		[[Body.effector("LeftHand", t), Body.effector("LeftHand", t)], "Hips", "names the same bone as effectors\\[0\\]"],
+		[[Body.effector("LeftHand", t, 1, 0.0, 0.0)], "Hips", "position_weight and rotation_weight are both 0"],
 		[[null], "Hips", "effectors\\[0\\] is empty or not an IKBodyEffector"],
-		[[_effector("LeftHand", t)], "", "root_bone is empty"],
-		[[_effector("LeftHand", t)], "Nope", "root_bone 'Nope' is not a bone"],
-		[[_pole(_effector("Spine", t), t)], "Hips", "pole_target needs a limb"],
-		[[_effector("LeftHand", t)], "Hips", "solver .* does not solve trees", IKBody.SOLVER_TWO_BONE],
+		[[Body.effector("LeftHand", t)], "", "root_bone is empty"],
+		[[Body.effector("LeftHand", t)], "Nope", "root_bone 'Nope' is not a bone"],
+		[[_pole(Body.effector("Spine", t), t)], "Hips", "pole_target needs a limb"],
+		[[Body.effector("LeftHand", t)], "Hips", "solver .* does not solve trees", IKBody.SOLVER_TWO_BONE],
 	]
 	for c in cases:
 		var rig := _body_with(c[0], c[1])
@@ -415,7 +390,7 @@ func test_hostile_configuration_problems_are_named_with_their_fix() -> void:
 
 func test_hostile_out_of_range_priority_is_clamped_and_solved() -> void:
 	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
-	var rig := _body_with([_effector("LeftHand", t, 9)])
+	var rig := _body_with([Body.effector("LeftHand", t, 9)])
 	var skel: Skeleton3D = rig["skeleton"]
 	var body: IKBody = rig["body"]
 	var cap := await _capture(skel, body)
@@ -435,7 +410,7 @@ func test_result_before_any_solve_and_typed_getters_agree() -> void:
 
 
 func test_properties_hints_and_defaults() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	skel.add_child(body)
@@ -468,15 +443,15 @@ func test_properties_hints_and_defaults() -> void:
 func test_deterministic_output_is_bit_identical() -> void:
 	var results := []
 	for run in 2:
-		var skel := _humanoid()
+		var skel := Body.humanoid()
 		case_root.add_child(skel)
 		var body := IKBody.new()
 		body.root_bone = "Hips"
 		body.floating_root = true
 		body.deterministic = true
 		body.effectors = [
-			_effector("LeftHand", _target("LH%d" % run, Transform3D(Basis(), Vector3(0.4, 0.9, 0.3))), 2),
-			_effector("LeftFoot", _target("LF%d" % run, skel.get_bone_global_pose(skel.find_bone("LeftFoot"))), 1, 1.0, 1.0),
+			Body.effector("LeftHand", _target("LH%d" % run, Transform3D(Basis(), Vector3(0.4, 0.9, 0.3))), 2),
+			Body.effector("LeftFoot", _target("LF%d" % run, skel.get_bone_global_pose(skel.find_bone("LeftFoot"))), 1, 1.0, 1.0),
 		]
 		skel.add_child(body)
 		var first := await _capture(skel, body)
@@ -500,7 +475,7 @@ func test_inspector_action_scripts_compile_and_name_real_properties() -> void:
 		return
 	var constants := Inspector.get_script_constant_map()
 	check_eq(constants.get("BUTTON_TEXT"), "Set up humanoid", "the button's text")
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	skel.add_child(body)
@@ -518,7 +493,7 @@ func test_inspector_action_scripts_compile_and_name_real_properties() -> void:
 func test_pole_target_turns_the_knee_toward_it() -> void:
 	var knee_x := []
 	for with_pole in [false, true]:
-		var skel := _humanoid()
+		var skel := Body.humanoid()
 		case_root.add_child(skel)
 		var body := IKBody.new()
 		skel.add_child(body)
@@ -550,7 +525,7 @@ func test_pole_target_turns_the_knee_toward_it() -> void:
 # An AnimationPlayer drives the arms; IKBody corrects the left hand onto its target, and the bones
 # outside the body (the right arm) keep the animation exactly: corrected, not replaced.
 func test_animation_player_pose_is_corrected_not_replaced() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var elbow_l := skel.find_bone("LeftLowerArm")
 	var elbow_r := skel.find_bone("RightLowerArm")
@@ -570,14 +545,14 @@ func test_animation_player_pose_is_corrected_not_replaced() -> void:
 	player.add_animation_library(&"", library)
 	player.play(&"pose")
 	# Where the animation puts the left hand, and a target 5 cm from it.
-	var probe := _humanoid()
+	var probe := Body.humanoid()
 	probe.set_bone_pose_rotation(probe.find_bone("LeftLowerArm"), bent_l)
 	var animated_hand := probe.get_bone_global_pose(probe.find_bone("LeftHand")).origin
 	probe.free()
 	var goal := animated_hand + Vector3(0.0, 0.03, 0.04)
 	var body := IKBody.new()
 	body.root_bone = "Hips"
-	body.effectors = [_effector("LeftHand", _target("LH", Transform3D(Basis(), goal)))]
+	body.effectors = [Body.effector("LeftHand", _target("LH", Transform3D(Basis(), goal)))]
 	skel.add_child(body)
 	var cap := {}
 	for frame in 3:
@@ -595,7 +570,7 @@ func test_animation_player_pose_is_corrected_not_replaced() -> void:
 func test_scene_round_trip_keeps_the_rig() -> void:
 	var root := Node3D.new()
 	root.name = "Character"
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	root.add_child(skel)
 	skel.owner = root
 	var body := IKBody.new()
@@ -648,7 +623,7 @@ func test_scene_round_trip_keeps_the_rig() -> void:
 # reach, and no bone jumps (a pop: a bone moving more than 5 cm between frames while the targets
 # move 1.3 cm).
 func test_tracking_moving_hands_without_pops() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	skel.add_child(body)
@@ -696,7 +671,7 @@ func test_tracking_moving_hands_without_pops() -> void:
 # solves again.
 func test_hostile_non_finite_incoming_pose_is_refused_by_name() -> void:
 	var t := _target("Target", Transform3D(Basis(), Vector3(0.3, 1.0, 0.3)))
-	var rig := _body_with([_effector("LeftHand", t)])
+	var rig := _body_with([Body.effector("LeftHand", t)])
 	var skel: Skeleton3D = rig["skeleton"]
 	var body: IKBody = rig["body"]
 	var lower := skel.find_bone("LeftLowerArm")
@@ -718,7 +693,7 @@ func test_hostile_non_finite_incoming_pose_is_refused_by_name() -> void:
 func test_gizmo_drawing_of_the_set_up_body() -> void:
 	var BodyDrawer: GDScript = load("res://addons/ikchain/ik_body_drawer.gd")
 	var Lines: GDScript = load("res://addons/ikchain/gizmo/ik_chain_gizmo_lines.gd")
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	skel.add_child(body)
@@ -768,7 +743,7 @@ func test_reach_with_a_moved_turned_scaled_skeleton() -> void:
 	place.transform = Transform3D(Basis(Vector3(0.3, 1, 0.2).normalized(), 0.7).scaled(Vector3(1.5, 1.5, 1.5)),
 			Vector3(4, -1, 2.5))
 	case_root.add_child(place)
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	place.add_child(skel)
 	var body := IKBody.new()
 	body.root_bone = "Hips"
@@ -777,7 +752,7 @@ func test_reach_with_a_moved_turned_scaled_skeleton() -> void:
 	var effectors: Array[IKBodyEffector] = []
 	for bone in names:
 		var t := _target("T" + bone, place.transform * (posed[bone] as Transform3D))
-		var e := _effector(bone, t, 1, 1.0, 1.0)
+		var e := Body.effector(bone, t, 1, 1.0, 1.0)
 		e.target = body.get_path_to(t) if body.is_inside_tree() else NodePath("../../../" + String(t.name))
 		effectors.append(e)
 	body.effectors = effectors
@@ -800,7 +775,7 @@ func test_reach_with_a_moved_turned_scaled_skeleton() -> void:
 func test_motion_cost_makes_the_spine_reluctant() -> void:
 	var bend := []
 	for cost in [1.0, 50.0]:
-		var skel := _humanoid()
+		var skel := Body.humanoid()
 		case_root.add_child(skel)
 		var hand := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
 		var body := IKBody.new()
@@ -810,7 +785,7 @@ func test_motion_cost_makes_the_spine_reluctant() -> void:
 		spine.bone_name = "Spine"
 		spine.motion_cost = cost
 		body.joints = [spine]
-		body.effectors = [_effector("LeftHand", _target("LH%d" % cost, Transform3D(Basis(), hand + Vector3(-0.15, -0.2, 0.2))))]
+		body.effectors = [Body.effector("LeftHand", _target("LH%d" % cost, Transform3D(Basis(), hand + Vector3(-0.15, -0.2, 0.2))))]
 		skel.add_child(body)
 		var cap := await _capture(skel, body)
 		if not check(not cap.is_empty(), "skeleton_updated came"):
@@ -829,7 +804,7 @@ func test_motion_cost_makes_the_spine_reluctant() -> void:
 ## solution, so a bend the reach needed does not stay (the character demo kept a backward-bent
 ## spine from its first frames, and an upturned pelvis after reaching for the crate, before this).
 func test_reach_and_return_leaves_no_bend_behind() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var hand := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
 	var near := hand + Vector3(-0.05, -0.1, 0.1)
@@ -837,7 +812,7 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 	var body := IKBody.new()
 	body.root_bone = "Hips"
 	body.max_iterations = 300
-	body.effectors = [_effector("LeftHand", target)]
+	body.effectors = [Body.effector("LeftHand", target)]
 	skel.add_child(body)
 	var spine := skel.find_bone("Spine")
 	var rest := skel.get_bone_rest(spine).basis.get_rotation_quaternion()

@@ -5,6 +5,8 @@
 # forward kinematics.
 extends "res://lib/ik_test.gd"
 
+const Body := preload("res://lib/body.gd")
+
 const FLOAT_SLACK := 2e-5
 const DEG := PI / 180.0
 ## Head, neck, upper chest, chest, spine: the look's share per bone (the effector's bone first).
@@ -13,33 +15,6 @@ const LOOK_BONES := ["Head", "Neck", "UpperChest", "Chest", "Spine"]
 
 
 # ------------------------------------------------------------------ fixtures
-
-func _humanoid() -> Skeleton3D:
-	var profile := SkeletonProfileHumanoid.new()
-	var skel := Skeleton3D.new()
-	skel.name = "Skeleton"
-	for i in profile.bone_size:
-		skel.add_bone(profile.get_bone_name(i))
-	for i in profile.bone_size:
-		var parent: StringName = profile.get_bone_parent(i)
-		if parent != &"":
-			skel.set_bone_parent(i, skel.find_bone(parent))
-		skel.set_bone_rest(i, profile.get_reference_pose(i))
-	skel.reset_bone_poses()
-	return skel
-
-
-func _effector(bone: String, target: Node3D, priority := 1, position_weight := 1.0,
-		rotation_weight := 0.0) -> IKBodyEffector:
-	var e := IKBodyEffector.new()
-	e.bone_name = bone
-	e.priority = priority
-	e.position_weight = position_weight
-	e.rotation_weight = rotation_weight
-	if target != null:
-		e.target = NodePath("../../" + String(target.name))
-	return e
-
 
 func _target(name: String, t: Transform3D) -> Node3D:
 	var n := Node3D.new()
@@ -97,12 +72,12 @@ static func _angle(a: Quaternion, b: Quaternion) -> float:
 
 ## A body whose head looks at `target` with SHARES over head..spine, cones on the spine and neck.
 func _look_rig(target_position: Vector3, neck_twist_deg := 60.0) -> Dictionary:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var head := skel.find_bone("Head")
 	var head_rest := skel.get_bone_global_pose(head)
 	var t := _target("LookTarget", Transform3D(Basis(), target_position))
-	var e := _effector("Head", t, 1, 0.0, 1.0)
+	var e := Body.effector("Head", t, 1, 0.0, 1.0)
 	e.look_at = true
 	# The head's own axis that faces the character's forward (+Z) at rest.
 	e.look_axis = (head_rest.basis.inverse() * Vector3(0, 0, 1)).normalized()
@@ -132,7 +107,7 @@ func _look_measure(skel: Skeleton3D, cap: Dictionary, e: IKBodyEffector, target_
 # A target 60 degrees to the side: the head aims at it within 1 degree, each bone takes its set
 # share of the turn within 2 degrees (so the torso does not turn as a block), the cones hold.
 func test_look_at_spreads_the_turn_by_share() -> void:
-	var skel0 := _humanoid()
+	var skel0 := Body.humanoid()
 	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
 	skel0.free()
 	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
@@ -164,7 +139,7 @@ func test_look_at_spreads_the_turn_by_share() -> void:
 # Tracking: the target sweeps from 60 degrees left to 40 degrees right over 30 frames (each frame
 # warm-starts from the last solution): the shares hold at the end as they do from rest.
 func test_look_at_tracking_a_moving_target_keeps_the_shares() -> void:
-	var skel0 := _humanoid()
+	var skel0 := Body.humanoid()
 	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
 	skel0.free()
 	var at := func(deg: float) -> Vector3:
@@ -188,7 +163,7 @@ func test_look_at_tracking_a_moving_target_keeps_the_shares() -> void:
 # A neck whose twist limit (5 degrees) is below its share: the neck stops at its limit, the head
 # takes what the neck withholds and still aims within 1 degree.
 func test_look_at_limits_hold_and_pass_the_rest_on() -> void:
-	var skel0 := _humanoid()
+	var skel0 := Body.humanoid()
 	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
 	skel0.free()
 	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
@@ -206,7 +181,7 @@ func test_look_at_limits_hold_and_pass_the_rest_on() -> void:
 
 # Influence 0.5: the look turns half way from the animated (rest) pose.
 func test_look_at_influence_turns_part_way() -> void:
-	var skel0 := _humanoid()
+	var skel0 := Body.humanoid()
 	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
 	skel0.free()
 	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
@@ -222,7 +197,7 @@ func test_look_at_influence_turns_part_way() -> void:
 
 # Without look_shares the look is still an aim goal: the solver spreads it by motion cost.
 func test_look_at_without_shares_still_aims() -> void:
-	var skel0 := _humanoid()
+	var skel0 := Body.humanoid()
 	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
 	skel0.free()
 	var target_position := head_origin + 2.0 * Vector3(sin(40 * DEG), 0.3, cos(40 * DEG))
@@ -239,7 +214,7 @@ func test_look_at_without_shares_still_aims() -> void:
 # setup_humanoid() leaves the head ready to look: turning on look_at and giving it a target is all;
 # the feet stay planted (level 1) while the head (level 3) looks 50 degrees aside and up.
 func test_look_at_on_the_set_up_humanoid() -> void:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	skel.add_child(body)
@@ -276,7 +251,7 @@ func test_look_at_on_the_set_up_humanoid() -> void:
 
 # A look target on the head's own origin: no direction to look along; a defined, finite pose.
 func test_look_at_target_on_the_bone_keeps_a_defined_pose() -> void:
-	var skel0 := _humanoid()
+	var skel0 := Body.humanoid()
 	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
 	skel0.free()
 	var rig := _look_rig(head_origin)
@@ -295,7 +270,7 @@ func test_look_at_target_on_the_bone_keeps_a_defined_pose() -> void:
 # The gizmo draws a look as the line to the target and the bone's look axis, as long: after the
 # solve they coincide (the look's error is the angle between them).
 func test_look_at_gizmo_draws_the_look_axis() -> void:
-	var skel0 := _humanoid()
+	var skel0 := Body.humanoid()
 	var head_origin := skel0.get_bone_global_pose(skel0.find_bone("Head")).origin
 	skel0.free()
 	var target_position := head_origin + 2.0 * Vector3(sin(60 * DEG), 0, cos(60 * DEG))
@@ -332,9 +307,9 @@ func test_look_at_bad_settings_are_named_with_their_fix() -> void:
 		[[0.5, 0.5], 0.0, "look_at aims the bone with rotation_weight, which is 0"],
 	]
 	for c in cases:
-		var skel := _humanoid()
+		var skel := Body.humanoid()
 		case_root.add_child(skel)
-		var e := _effector("Head", t, 1, 1.0, c[1])
+		var e := Body.effector("Head", t, 1, 1.0, c[1])
 		e.look_at = true
 		e.look_shares = c[0]
 		var body := IKBody.new()
@@ -365,7 +340,7 @@ const Baker := preload("res://addons/ikchain/ik_body_baker.gd")
 ## A humanoid, a player with the animation "move" (`seconds` long: the left hand's target moves,
 ## the spine and the left thigh are animated) and a body reaching both hands (deterministic).
 func _bake_rig(seconds := 2.0) -> Dictionary:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var lhand := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin
 	var rhand := skel.get_bone_global_pose(skel.find_bone("RightHand")).origin
@@ -398,7 +373,7 @@ func _bake_rig(seconds := 2.0) -> Dictionary:
 	body.root_bone = "Hips"
 	body.deterministic = true
 	body.max_iterations = 200
-	body.effectors = [_effector("LeftHand", lt), _effector("RightHand", rt)]
+	body.effectors = [Body.effector("LeftHand", lt), Body.effector("RightHand", rt)]
 	skel.add_child(body)
 	return {"skeleton": skel, "body": body, "player": player, "animation": anim, "library": lib}
 
@@ -557,7 +532,7 @@ func _ground(name: String, top_center: Vector3, size: Vector3, tilt := Basis()) 
 ## A humanoid with the set-up body (floating root, hips and feet at level 1) and an
 ## IKFootPlacement driven by hand (enabled off; the test calls place()).
 func _foot_rig() -> Dictionary:
-	var skel := _humanoid()
+	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var body := IKBody.new()
 	skel.add_child(body)

@@ -1,0 +1,29 @@
+# Fixtures of the IKBody tests (test_ik_body.gd, test_ik_body_features.gd): a humanoid Skeleton3D
+# built from Godot's SkeletonProfileHumanoid (names, parents, reference poses: what a retargeted
+# glTF/FBX humanoid has), and an effector whose target is a sibling of the skeleton.
+
+static func humanoid() -> Skeleton3D:
+	var profile := SkeletonProfileHumanoid.new()
+	var skel := Skeleton3D.new()
+	skel.name = "Skeleton"
+	for i in profile.bone_size:
+		skel.add_bone(profile.get_bone_name(i))
+	for i in profile.bone_size:
+		var parent: StringName = profile.get_bone_parent(i)
+		if parent != &"":
+			skel.set_bone_parent(i, skel.find_bone(parent))
+		skel.set_bone_rest(i, profile.get_reference_pose(i))
+	skel.reset_bone_poses()
+	return skel
+
+
+static func effector(bone: String, target: Node3D, priority := 1, position_weight := 1.0,
+		rotation_weight := 0.0) -> IKBodyEffector:
+	var e := IKBodyEffector.new()
+	e.bone_name = bone
+	e.priority = priority
+	e.position_weight = position_weight
+	e.rotation_weight = rotation_weight
+	if target != null:
+		e.target = NodePath("../../" + String(target.name))
+	return e
