@@ -140,6 +140,11 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     t.support_begin_[e + 1] = static_cast<int>(t.support_lists_.size());
     t.reach_from_root_[e] = reach;
   }
+  t.lever_ = t.reach_from_root_;
+  for (int e = 0; e < m; ++e)
+    for (int f = 0; f < m; ++f)
+      if (f != e && t.supports(f, effectors_[e].joint))
+        t.lever_[e] = std::max(t.lever_[e], t.reach_from_root_[f] - t.reach_from_root_[e]);
   double total = 0.0;
   for (int i = 0; i < n; ++i) {
     if (t.joints_[i].parent >= 0) total += glm::length(t.joints_[i].offset_in_parent);

@@ -120,6 +120,10 @@ class Tree {
   // Longest distance effector e can be from o_0 (the sum of the bone lengths on its path plus its
   // offset; slides at their longest), and from the base origin when the root does not float.
   double reach_from_root(int e) const { return reach_from_root_[e]; }
+  // The longest lever a turn of effector e's frame swings (m): its reach from o_0, or the farthest
+  // an effector below it reaches past it (the root's effector turns the whole body). What a
+  // radian of e's orientation error is worth in metres.
+  double lever(int e) const { return lever_[e]; }
   // Sum of every bone length (m): the scale for relative thresholds.
   double total_length() const { return total_length_; }
 
@@ -142,6 +146,7 @@ class Tree {
   std::vector<int> support_lists_;     // concatenated, root first
   std::vector<int> support_begin_;     // effector_count + 1
   std::vector<double> reach_from_root_;
+  std::vector<double> lever_;
   int dof_count_ = 0;
   bool floating_root_ = false;
   double translation_motion_cost_ = 1.0;

@@ -819,7 +819,7 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
           if (sine > 1e-12) point = origin + glm::angleAxis(influence * angle, about / sine) * facing * distance;
         }
       }
-      const double length = std::max(tree.reach_from_root(slot.core_effector), 1e-3);
+      const double length = std::max(tree.lever(slot.core_effector), 1e-3);
       goals_[size_t(goal_count)] = {Goal::aim_at(point, axis, slot.core_effector, wr * length * length), level};
       goal_slot_[size_t(goal_count)] = s;
       goal_rotation_[size_t(goal_count)] = 1;
@@ -845,8 +845,8 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
       const glm::dquat animated = tree_effector_orientation(tree, workspace_, slot.core_effector);
       const glm::dquat target = base.rotation_in_base(target_m);
       const glm::dquat goal = influence >= 1.0 ? target : godot_slerp(animated, target, influence);
-      // A radian counts like the effector's reach from the root in metres (rotation_weight 1).
-      const double length = std::max(tree.reach_from_root(slot.core_effector), 1e-3);
+      // A radian counts like the longest lever it swings, in metres (Tree::lever; rotation_weight 1).
+      const double length = std::max(tree.lever(slot.core_effector), 1e-3);
       goals_[size_t(goal_count)] = {Goal::orientation(goal, slot.core_effector, wr * length * length), level};
       goal_slot_[size_t(goal_count)] = s;
       goal_rotation_[size_t(goal_count)] = 1;
@@ -873,11 +873,10 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
   problem.goals = Span<const TreeGoal>(goals_.data(), goal_count);
   problem.posture = Span<const double>(posture_.data(), int(posture_.size()));
   problem.posture_stiffness = Span<const double>(posture_stiffness_.data(), int(posture_stiffness_.size()));
-  // Tracking frames start from the last solution and go on toward the posture frame after frame, so
-  // a frame stops a few posture steps after its goals are met instead of waiting for the posture to
-  // settle (~20 iterations a frame at stiffness 0.1). `deterministic` frames all start from the
-  // incoming pose: they let it settle, so the output depends on this frame's inputs alone.
-  problem.posture_iterations = deterministic_ ? 0 : kTrackingPostureIterations;
+  // A frame stops a few posture steps after its goals are met instead of waiting for the posture
+  // to settle (~20 iterations a frame at stiffness 0.1): a tracking frame goes on from there the
+  // next frame; a `deterministic` one (from the incoming pose) gets the same steps every time.
+  problem.posture_iterations = kPostureIterations;
   last_ = solve_tree(resolved_solver(), tree, problem, options_, workspace_, params_);
   has_result_ = true;
   last_goal_count_ = goal_count;

@@ -36,8 +36,8 @@ class IKBody {
   // the effectors leave (TreeProblem::posture_stiffness): the redundant joints stay near the
   // start instead of wandering.
   static constexpr double kPostureStiffness = 0.1;
-  // Posture-only iterations a tracking frame takes once its goals are met (TreeProblem::posture_iterations).
-  static constexpr int kTrackingPostureIterations = 4;
+  // Posture-only iterations a frame takes once its goals are met (TreeProblem::posture_iterations).
+  static constexpr int kPostureIterations = 4;
 
   static void register_class(gdx::ClassRecord& record);
   static void unregister_class();

@@ -160,7 +160,9 @@ TEST(TreeSolve, FloatingRootCrouchesToTheFloorWithFeetPlanted) {
     if (floating) {
       EXPECT_EQ(r.summary.reason, TerminationReason::kConverged);
       EXPECT_LE(r.goal_error[4], o.position_tolerance);
-      EXPECT_LT(q[1], -0.1);  // the hips went down
+      // The hips went down: the fixed root's best leaves the hand over 0.1 m short, so the reach
+      // needs the crouch (how far the solution shares it with the spine is the solver's choice).
+      EXPECT_LT(q[1], -0.05);
     } else {
       EXPECT_GT(r.goal_error[4], 0.1);
     }

@@ -44,6 +44,18 @@ constexpr int kLimitPasses = 3;
 // iterations instead of three (|e|^2 itself did not) and leaves cold starts (|e|^2 ~ 0.1-10) at
 // dls_initial_damping.
 constexpr double kResidualDamping = 0.1;
+// Lexicographic progress: the relative gain of the first level `before` has not met whose cost
+// the step changed (beyond kSameCost); `otherwise` when it changed none (the posture's gain).
+double lexicographic_gain(const TreeErrors& after, const TreeErrors& before, double otherwise) {
+  for (int l = 0; l < kMaxPriorityLevels; ++l) {
+    const double b = before.level_cost[l];
+    if (before.level_met[l] || !(b > 0.0)) continue;
+    const double gain = (b - after.level_cost[l]) / b;
+    if (std::abs(gain) > kSameCost) return gain;
+  }
+  return otherwise;
+}
+
 // A step whose progress() (the largest relative gain of a level not met, or of the posture) is at
 // least this shows the linear model holds: the next step reuses its Jacobian and factors (a chord
 // step). 0.99 and 0.9 cost the body bench the same instructions; 0.99 takes fewer, surer chord
@@ -108,6 +120,13 @@ bool better(const TreeErrors& trial, double trial_posture, const TreeErrors& cur
   const int strict = compare_levels(trial, current, LevelCosts{});
   if (strict != 0) return strict > 0;
   return trial_posture < current_posture * (1.0 - kSameCost);
+}
+
+// True when every level is met or costs at most `met_cost`.
+bool within(const TreeErrors& errors, const LevelCosts& met_cost) {
+  for (int l = 0; l < kMaxPriorityLevels; ++l)
+    if (!errors.level_met[l] && errors.level_cost[l] > met_cost[l]) return false;
+  return true;
 }
 
 // The cost each level has when every one of its goals is `factor` times its tolerance off.
@@ -681,18 +700,24 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     // one not met (a lower level's step would only drift it).
     const int served = met_cost == &strict ? std::min(model.first_unmet(current) + 1, model.level_count())
                                            : model.level_count();
+    // Polishing (every level within the relaxed band, not every goal met): goals only. A posture
+    // step drifts the goals by its square, so with it the polish converged linearly (a few per cent
+    // an iteration on a tracking frame, for as long as the posture moved); without it, a step or
+    // two, then the posture steps once every goal is met.
+    const bool polishing = !problem.posture.empty() && !current.all_met() && within(current, relaxed);
+    const double step_posture_gain = polishing ? 0.0 : posture_gain;
     // After a step that removed most of the cost the next one is a chord step (the same J and
     // factors); when that needs a new active set, or falls short, J is linearised afresh.
     bool chorded = false;
     if (chord) {
       chord = false;
-      chorded = served == model.served() && model.chord(params, posture_gain);
+      chorded = served == model.served() && model.chord(params, step_posture_gain);
       if (!chorded) {
         tree_dof_axes(tree, params, ws);  // ws holds the FK of params (the accepted trial's)
         model.linearize();
       }
     }
-    bool trial_ok = chorded || model.compute(params, mu, posture_gain, served);
+    bool trial_ok = chorded || model.compute(params, mu, step_posture_gain, served);
     TreeErrors trial;
     double trial_posture = 0.0;
     if (trial_ok) {
@@ -721,6 +746,12 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     }
     if (trial_ok) {
       const double gain = progress(trial, trial_posture, current, current_posture);
+      // The stall and creep rules ask the first unmet level the step moved (the posture when it
+      // moved none): while a higher level moves, a lower level's or the posture's gain is no
+      // progress. Counted as progress, their swing up and down (the hands' error trading against
+      // the feet's) hid a creep held by the limits for the whole iteration budget (a cold start
+      // with straight knees).
+      const double stall_gain = lexicographic_gain(trial, current, gain);
       std::copy(ws.params_trial.data(), ws.params_trial.data() + n, params);
       std::swap(ws.residual, ws.residual_trial);
       residual = ws.residual.data();
@@ -740,8 +771,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         status.reason = TerminationReason::kConverged;
         break;
       }
-      slow_steps = gain < o.stall_tolerance ? slow_steps + 1 : 0;
-      creep_steps = gain < kCreepGain ? creep_steps + 1 : 0;
+      slow_steps = stall_gain < o.stall_tolerance ? slow_steps + 1 : 0;
+      creep_steps = stall_gain < kCreepGain ? creep_steps + 1 : 0;
       const bool goals_left = !current.all_met();
       if (slow_steps >= kStallIterations) {
         if (goals_left && (tighten() || escape_stuck())) continue;

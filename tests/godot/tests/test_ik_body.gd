@@ -827,7 +827,7 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 	var bend_far := _angle((far["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
 	check(bend_far > bend_before + 0.2, "the far reach bends the spine: %.4f -> %.4f rad" % [bend_before, bend_far])
 	target.position = near
-	# A tracking frame takes IKBody.kTrackingPostureIterations posture steps once its goals are met
+	# A frame takes IKBody.kPostureIterations posture steps once its goals are met
 	# (a share of the way back each), so the spine gets back over a few frames, not in one.
 	for i in 12:
 		await process_frame
