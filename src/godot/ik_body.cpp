@@ -11,6 +11,7 @@
 #include "core/so3.hpp"
 #include "ik_body_effector.hpp"
 #include "ik_chain_joint.hpp"
+#include "node_util.hpp"
 #include "property_report.hpp"
 
 namespace ikchain::godot {
@@ -37,26 +38,6 @@ const char* solver_constant(int64_t value) {
 }
 static_assert(kSolverKindCount == IKBody::kSolverAuto,
               "IKBody.Solver values are the core's SolverKind values, then Auto");
-
-const char* reason_name(TerminationReason r) {
-  switch (r) {
-    case TerminationReason::kConverged: return "converged";
-    case TerminationReason::kMaxIterations: return "max_iterations";
-    case TerminationReason::kStalled: return "stalled";
-    case TerminationReason::kUnreachable: return "unreachable";
-    case TerminationReason::kInvalidInput: return "invalid_input";
-  }
-  return "invalid_input";
-}
-
-gdx::String text(const std::string& s) { return gdx::String(std::string_view(s)); }
-
-bool finite(const glm::dmat4& m) {
-  for (int c = 0; c < 4; ++c)
-    for (int r = 0; r < 3; ++r)
-      if (!std::isfinite(m[c][r])) return false;
-  return true;
-}
 
 std::string effector_label(int index, const std::string& bone) {
   char buf[160];
