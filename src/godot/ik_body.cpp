@@ -21,23 +21,9 @@ namespace hint = gdx::gen::PropertyHint;
 namespace {
 
 constexpr const char* kClass = "IKBody";
+constexpr IKModifier::Traits kTraits{kClass, IKBody::kDefaultMaxIterations, "[1e-06, 1] m",
+                                     /*solver_change_rebuilds=*/true, /*deterministic_is_cold_start=*/false};
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-struct Names {
-  gdx::StringName root_bone{"root_bone"};
-  gdx::StringName bone_list_changed{"bone_list_changed"};
-  gdx::StringName rest_updated{"rest_updated"};
-  gdx::StringName skeleton_changed{"_skeleton_changed"};
-};
-Names* g_names = nullptr;
-
-const char* solver_constant(int64_t value) {
-  static constexpr const char* kNames[] = {"SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS",
-                                           "SOLVER_BFGS",     "SOLVER_FABRIK", "SOLVER_AUTO"};
-  return kNames[value];
-}
-static_assert(kSolverKindCount == IKBody::kSolverAuto,
-              "IKBody.Solver values are the core's SolverKind values, then Auto");
 
 std::string effector_label(int index, const std::string& bone) {
   char buf[160];
@@ -51,7 +37,6 @@ std::string effector_label(int index, const std::string& bone) {
 // ---------------------------------------------------------------- registration
 
 void IKBody::register_class(gdx::ClassRecord& record) {
-  g_names = new Names();
   gdx::ClassBuilder<IKBody> b(record);
   b.register_class();
 
@@ -63,16 +48,6 @@ void IKBody::register_class(gdx::ClassRecord& record) {
   b.method("get_effectors", &IKBody::get_effectors, {}, {nullptr, "IKBodyEffector"});
   b.method("set_joints", &IKBody::set_joints, {"joints"});
   b.method("get_joints", &IKBody::get_joints, {}, {nullptr, "IKChainJoint"});
-  b.method("set_solver", &IKBody::set_solver, {"solver"});
-  b.method("get_solver", &IKBody::get_solver, {}, {"IKBody.Solver"});
-  b.method("set_max_iterations", &IKBody::set_max_iterations, {"iterations"});
-  b.method("get_max_iterations", &IKBody::get_max_iterations);
-  b.method("set_tolerance", &IKBody::set_tolerance, {"tolerance"});
-  b.method("get_tolerance", &IKBody::get_tolerance);
-  b.method("set_orientation_tolerance", &IKBody::set_orientation_tolerance, {"radians"});
-  b.method("get_orientation_tolerance", &IKBody::get_orientation_tolerance);
-  b.method("set_deterministic", &IKBody::set_deterministic, {"enabled"});
-  b.method("is_deterministic", &IKBody::is_deterministic);
   b.method("get_last_result", &IKBody::get_last_result);
   b.method("get_last_reason", &IKBody::get_last_reason);
   b.method("is_last_usable", &IKBody::is_last_usable);
@@ -88,16 +63,6 @@ void IKBody::register_class(gdx::ClassRecord& record) {
   b.method("setup_humanoid", &IKBody::setup_humanoid);
   b.method("_get_configuration_warnings", &IKBody::get_configuration_warnings);
 
-  // The solvers that take trees (the core's table, column `trees`), then Auto.
-  std::string solver_hint;
-  for (const SolverInfo& info : solver_table()) {
-    const int64_t value = int64_t(info.kind);
-    b.constant("Solver", solver_constant(value), value);
-    if (info.trees) solver_hint += std::string(info.display_name) + ":" + std::to_string(value) + ",";
-  }
-  b.constant("Solver", solver_constant(kSolverAuto), kSolverAuto);
-  solver_hint += "Auto:" + std::to_string(kSolverAuto);
-
   b.property({"root_bone", GDEXTENSION_VARIANT_TYPE_STRING, hint::PROPERTY_HINT_ENUM, ""}, "set_root_bone",
              "get_root_bone");
   b.property({"floating_root", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_floating_root", "is_floating_root");
@@ -106,17 +71,8 @@ void IKBody::register_class(gdx::ClassRecord& record) {
   b.property({"joints", GDEXTENSION_VARIANT_TYPE_ARRAY, hint::PROPERTY_HINT_TYPE_STRING, "24/17:IKChainJoint"},
              "set_joints", "get_joints");
   b.group("Solver", "");
-  b.property({"solver", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_ENUM, solver_hint.c_str()}, "set_solver",
-             "get_solver");
-  b.property({"max_iterations", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_RANGE, "1,1000,1"},
-             "set_max_iterations", "get_max_iterations");
-  b.property({"tolerance", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
-              "0.000001,1,0.000001,exp,suffix:m"},
-             "set_tolerance", "get_tolerance");
-  b.property({"orientation_tolerance", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
-              "0.000001,1,0.000001,exp,suffix:rad"},
-             "set_orientation_tolerance", "get_orientation_tolerance");
-  b.property({"deterministic", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_deterministic", "is_deterministic");
+  IKModifier::bind_solver_settings(b, "IKBody.Solver", /*trees_only=*/true);
+  IKModifier::bind_deterministic(b);
 
   b.virtual_method("_process_modification_with_delta",
                    gdx::gen::kVirtualHash_SkeletonModifier3D__process_modification_with_delta,
@@ -127,24 +83,13 @@ void IKBody::register_class(gdx::ClassRecord& record) {
                    &IKBody::skeleton_changed);
 }
 
-void IKBody::unregister_class() {
-  delete g_names;
-  g_names = nullptr;
-}
+void IKBody::unregister_class() {}
 
-IKBody::IKBody(gdx::ObjectPtr owner) : owner_(owner) {
-  options_.max_iterations = int(max_iterations_);
-  options_.position_tolerance = tolerance_;
-  options_.orientation_tolerance = orientation_tolerance_;
+IKBody::IKBody(gdx::ObjectPtr owner) : IKModifier(owner, kTraits) {
   options_.warm_start = true;  // the start is the animated pose (or the last solve), never the rest pose
 }
 
 // ---------------------------------------------------------------- properties
-
-void IKBody::mark_dirty() {
-  dirty_ = true;
-  gdx::Node::unchecked(owner_).update_configuration_warnings();
-}
 
 void IKBody::set_root_bone(const gdx::String& name) {
   std::string v = name.utf8();
@@ -169,36 +114,6 @@ void IKBody::set_joints(const gdx::Array& joints) {
   joints_ = joints;
   mark_dirty();
 }
-
-void IKBody::set_solver(int64_t solver) {
-  const int64_t used = std::clamp<int64_t>(solver, 0, kSolverAuto);
-  if (used != solver) report_clamped(kClass, "solver", "0..6 (IKBody.SOLVER_*)", double(solver), double(used));
-  if (used == solver_) return;
-  solver_ = used;
-  mark_dirty();  // a solver that takes no trees stops the body (a configuration warning)
-}
-
-void IKBody::set_max_iterations(int64_t n) {
-  max_iterations_ = std::clamp<int64_t>(n, 1, 1000);
-  if (max_iterations_ != n) report_clamped(kClass, "max_iterations", "1..1000", double(n), double(max_iterations_));
-  options_.max_iterations = int(max_iterations_);
-}
-
-void IKBody::set_tolerance(double meters) {
-  const double used = std::isnan(meters) ? tolerance_ : std::clamp(meters, 1e-6, 1.0);
-  if (used != meters) report_clamped(kClass, "tolerance", "[1e-06, 1] m", meters, used);
-  tolerance_ = used;
-  options_.position_tolerance = tolerance_;
-}
-
-void IKBody::set_orientation_tolerance(double radians) {
-  const double used = std::isnan(radians) ? orientation_tolerance_ : std::clamp(radians, 1e-6, 1.0);
-  if (used != radians) report_clamped(kClass, "orientation_tolerance", "[1e-06, 1] rad", radians, used);
-  orientation_tolerance_ = used;
-  options_.orientation_tolerance = orientation_tolerance_;
-}
-
-void IKBody::set_deterministic(bool on) { deterministic_ = on; }
 
 // ---------------------------------------------------------------- results
 
@@ -266,35 +181,9 @@ gdx::PackedInt32Array IKBody::get_body_bones() {
 // ---------------------------------------------------------------- editor
 
 bool IKBody::validate_property(GDExtensionPropertyInfo& property) {
-  if (g_names == nullptr || !g_names->root_bone.equals(property.name)) return false;
-  const gdx::Skeleton3D skel = skeleton();
-  if (!skel) {
-    property.hint = uint32_t(hint::PROPERTY_HINT_NONE);
-    return true;
-  }
-  const gdx::String names(skel.get_concatenated_bone_names());
-  property.hint = uint32_t(hint::PROPERTY_HINT_ENUM);
-  gdx::String::assign_to(property.hint_string, names);
+  if (!is_bone_property(property.name)) return false;
+  bone_drop_down(property);
   return true;
-}
-
-gdx::Skeleton3D IKBody::skeleton() const {
-  const gdx::SkeletonModifier3D self = gdx::SkeletonModifier3D::unchecked(owner_);
-  gdx::Skeleton3D skel = self.get_skeleton();
-  if (!skel) skel = gdx::Skeleton3D::cast(self.get_parent());
-  return skel;
-}
-
-void IKBody::watch_skeleton(const gdx::Skeleton3D& skel) {
-  if (!skel || g_names == nullptr) return;
-  const gdx::Callable callback(owner_, g_names->skeleton_changed);
-  for (const gdx::StringName* signal : {&g_names->bone_list_changed, &g_names->rest_updated})
-    if (!skel.is_connected(*signal, callback)) skel.connect(*signal, callback);
-}
-
-void IKBody::skeleton_changed() {
-  dirty_ = true;
-  gdx::Object(owner_).notify_property_list_changed();
 }
 
 void IKBody::notification(int32_t what) {
@@ -320,8 +209,8 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
       problems.push_back({"root_bone", "IKBody: root_bone '" + root_bone_ +
                                            "' is not a bone of the parent Skeleton3D; pick one from the list."});
   }
-  if (solver_ != kSolverAuto && !solver_info(SolverKind(solver_)).trees)
-    problems.push_back({"solver", std::string("IKBody: solver ") + solver_info(SolverKind(solver_)).display_name +
+  if (!solver_is_auto() && !solver_info(choice_kind()).trees)
+    problems.push_back({"solver", std::string("IKBody: solver ") + solver_info(choice_kind()).display_name +
                                       " does not solve trees; pick Auto or a solver the list offers."});
 
   std::vector<int> parents(size_t(bone_count), -1);
@@ -635,7 +524,7 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
 
 SolverKind IKBody::resolved_solver() const {
   // Auto: damped least squares, the coupled solver with priority levels.
-  return solver_ == kSolverAuto ? SolverKind::kDLS : SolverKind(solver_);
+  return solver_is_auto() ? SolverKind::kDLS : choice_kind();
 }
 
 // ---------------------------------------------------------------- solving

@@ -18,20 +18,18 @@
 #include "binding/class_db.hpp"
 #include "core/ikchain.hpp"
 #include "core/tree_solve.hpp"
+#include "ik_modifier.hpp"
 #include "skeleton_tree.hpp"
 
 namespace ikchain::godot {
 
 class IKBodyEffector;
 
-class IKBody {
+class IKBody : public IKModifier {
  public:
-  // The values are IKChain.Solver's (the core's SolverKind, then Auto): saved in scenes, never
-  // renumbered. Only the solvers whose solver-table row says `trees` are offered.
-  static constexpr int64_t kSolverAuto = 6;
+  // The Solver values are IKChain.Solver's (solver_choice.hpp): saved in scenes, never renumbered.
+  // Only the solvers whose core solver-table row says `trees` are offered.
   static constexpr int64_t kDefaultMaxIterations = 100;
-  static constexpr double kDefaultTolerance = 1e-4;             // m
-  static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
   // The share of the distance to the posture (the start pose) one iteration closes in the freedom
   // the effectors leave (TreeProblem::posture_stiffness): the redundant joints stay near the
   // start instead of wandering.
@@ -53,16 +51,6 @@ class IKBody {
   gdx::Array get_effectors() const { return effectors_; }
   void set_joints(const gdx::Array& joints);
   gdx::Array get_joints() const { return joints_; }
-  void set_solver(int64_t solver);
-  int64_t get_solver() const { return solver_; }
-  void set_max_iterations(int64_t n);
-  int64_t get_max_iterations() const { return max_iterations_; }
-  void set_tolerance(double meters);
-  double get_tolerance() const { return tolerance_; }
-  void set_orientation_tolerance(double radians);
-  double get_orientation_tolerance() const { return orientation_tolerance_; }
-  void set_deterministic(bool on);
-  bool is_deterministic() const { return deterministic_; }
 
   // ---- script API
   gdx::Dictionary get_last_result() const;
@@ -89,7 +77,6 @@ class IKBody {
   void process_modification(double delta);
   void notification(int32_t what);
   gdx::PackedStringArray get_configuration_warnings() const;
-  void skeleton_changed();
 
  private:
   struct Problem {
@@ -116,9 +103,6 @@ class IKBody {
   // and, when asked, the tree description and the effector slots (skeleton bone indices).
   void configure(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems, SkeletonTreeDesc* desc,
                  std::vector<Slot>* slots, std::vector<gdx::Variant>* held) const;
-  void mark_dirty();
-  gdx::Skeleton3D skeleton() const;
-  void watch_skeleton(const gdx::Skeleton3D& skeleton);
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
   void rebuild(const gdx::Skeleton3D& skeleton);
   bool run(const gdx::Skeleton3D& skeleton);
@@ -126,21 +110,13 @@ class IKBody {
   void set_invalid_result(const char* message);
   SolverKind resolved_solver() const;
 
-  gdx::ObjectPtr owner_;
-
   // Settings.
   std::string root_bone_;
   bool floating_root_ = false;
   gdx::Array effectors_;
   gdx::Array joints_;
-  int64_t solver_ = kSolverAuto;
-  int64_t max_iterations_ = kDefaultMaxIterations;
-  double tolerance_ = kDefaultTolerance;
-  double orientation_tolerance_ = kDefaultOrientationTolerance;
-  bool deterministic_ = false;
 
   // Built lazily (rebuild()); the per-frame path only reads these.
-  bool dirty_ = true;
   bool body_ok_ = false;
   uint64_t built_skeleton_id_ = 0;
   int64_t built_skeleton_version_ = -1;
@@ -162,7 +138,6 @@ class IKBody {
   std::vector<char> goal_rotation_;  // per goal: the orientation goal (else position)
   std::vector<int> look_goals_;      // per frame: the goals whose look is spread (capacity: slots)
   TreeWorkspace workspace_;
-  SolverOptions options_;
   bool have_last_ = false;
 
   std::vector<std::string> runtime_reported_;

@@ -21,15 +21,9 @@ namespace usage = gdx::gen::PropertyUsageFlags;
 namespace {
 
 constexpr const char* kClass = "IKChain";
+constexpr IKModifier::Traits kTraits{kClass, IKChain::kDefaultMaxIterations, "[1e-06, 1] (skeleton units)",
+                                     /*solver_change_rebuilds=*/false, /*deterministic_is_cold_start=*/true};
 
-// The solvers come from the core's one table (solver_table(): names, capabilities); IKChain's
-// values 0..5 are the SolverKind values, and Auto (6) resolves per chain (resolved_solver()).
-// Only the script-facing constant names are spelled here.
-static_assert(int64_t(SolverKind::kTwoBone) == IKChain::SOLVER_TWO_BONE && int64_t(SolverKind::kCCD) == IKChain::SOLVER_CCD &&
-                  int64_t(SolverKind::kJacobianPinv) == IKChain::SOLVER_JACOBIAN &&
-                  int64_t(SolverKind::kDLS) == IKChain::SOLVER_DLS && int64_t(SolverKind::kBFGS) == IKChain::SOLVER_BFGS &&
-                  int64_t(SolverKind::kFABRIK) == IKChain::SOLVER_FABRIK && kSolverKindCount == IKChain::SOLVER_AUTO,
-              "IKChain.Solver values are the core's SolverKind values, then Auto");
 // TipAxis (the engine-free mapping) takes IKChain.Axis values as they are.
 static_assert(int(TipAxis::kPlusX) == IKChain::AXIS_PLUS_X, "TipAxis follows IKChain.Axis");
 static_assert(int(TipAxis::kMinusX) == IKChain::AXIS_MINUS_X, "TipAxis follows IKChain.Axis");
@@ -38,23 +32,12 @@ static_assert(int(TipAxis::kMinusY) == IKChain::AXIS_MINUS_Y, "TipAxis follows I
 static_assert(int(TipAxis::kPlusZ) == IKChain::AXIS_PLUS_Z, "TipAxis follows IKChain.Axis");
 static_assert(int(TipAxis::kMinusZ) == IKChain::AXIS_MINUS_Z, "TipAxis follows IKChain.Axis");
 
-const char* solver_constant(int64_t value) {
-  static constexpr const char* kNames[] = {"SOLVER_TWO_BONE", "SOLVER_CCD", "SOLVER_JACOBIAN", "SOLVER_DLS",
-                                           "SOLVER_BFGS",     "SOLVER_FABRIK", "SOLVER_AUTO"};
-  return kNames[value];
-}
-
 // StringNames the instances compare against; allocated at SCENE init, freed at deinit.
 struct Names {
-  gdx::StringName root_bone{"root_bone"};
-  gdx::StringName tip_bone{"tip_bone"};
   gdx::StringName tip_extension_axis{"tip_extension_axis"};
   gdx::StringName tip_extension_length{"tip_extension_length"};
   gdx::StringName aim_axis{"aim_axis"};
   gdx::StringName use_target_rotation{"use_target_rotation"};
-  gdx::StringName bone_list_changed{"bone_list_changed"};
-  gdx::StringName rest_updated{"rest_updated"};
-  gdx::StringName skeleton_changed{"_skeleton_changed"};
 };
 Names* g_names = nullptr;
 
@@ -83,8 +66,6 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("is_using_target_transform", &IKChain::is_using_target_transform);
   b.method("set_target_transform", &IKChain::set_target_transform, {"transform"});
   b.method("get_target_transform", &IKChain::get_target_transform);
-  b.method("set_solver", &IKChain::set_solver, {"solver"});
-  b.method("get_solver", &IKChain::get_solver, {}, {"IKChain.Solver"});
   b.method("set_goal_mode", &IKChain::set_goal_mode, {"mode"});
   b.method("get_goal_mode", &IKChain::get_goal_mode, {}, {"IKChain.GoalMode"});
   b.method("set_aim_axis", &IKChain::set_aim_axis, {"axis"});
@@ -99,12 +80,6 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("get_joints", &IKChain::get_joints, {}, {nullptr, "IKChainJoint"});
   b.method("set_goals", &IKChain::set_goals, {"goals"});
   b.method("get_goals", &IKChain::get_goals, {}, {nullptr, "IKChainGoal"});
-  b.method("set_max_iterations", &IKChain::set_max_iterations, {"iterations"});
-  b.method("get_max_iterations", &IKChain::get_max_iterations);
-  b.method("set_tolerance", &IKChain::set_tolerance, {"tolerance"});
-  b.method("get_tolerance", &IKChain::get_tolerance);
-  b.method("set_orientation_tolerance", &IKChain::set_orientation_tolerance, {"radians"});
-  b.method("get_orientation_tolerance", &IKChain::get_orientation_tolerance);
   b.method("set_soft_reach", &IKChain::set_soft_reach, {"distance"});
   b.method("get_soft_reach", &IKChain::get_soft_reach);
   b.method("set_time_budget_usec", &IKChain::set_time_budget_usec, {"usec"});
@@ -113,8 +88,6 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("get_max_restarts", &IKChain::get_max_restarts);
   b.method("set_restart_seed", &IKChain::set_restart_seed, {"seed"});
   b.method("get_restart_seed", &IKChain::get_restart_seed);
-  b.method("set_deterministic", &IKChain::set_deterministic, {"enabled"});
-  b.method("is_deterministic", &IKChain::is_deterministic);
   b.method("get_last_result", &IKChain::get_last_result);
   b.method("get_last_reason", &IKChain::get_last_reason);
   b.method("is_last_usable", &IKChain::is_last_usable);
@@ -132,14 +105,6 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   // get_configuration_warnings(), and tools and tests want to read them.
   b.method("_get_configuration_warnings", &IKChain::get_configuration_warnings);
 
-  std::string solver_hint;
-  for (const SolverInfo& info : solver_table()) {
-    const int64_t value = int64_t(info.kind);
-    b.constant("Solver", solver_constant(value), value);
-    solver_hint += std::string(info.display_name) + ":" + std::to_string(value) + ",";
-  }
-  b.constant("Solver", solver_constant(SOLVER_AUTO), SOLVER_AUTO);
-  solver_hint += "Auto:" + std::to_string(SOLVER_AUTO);
   b.constant("GoalMode", "GOAL_MODE_REACH", GOAL_MODE_REACH);
   b.constant("GoalMode", "GOAL_MODE_AIM", GOAL_MODE_AIM);
   const char* axis_constants[] = {"AXIS_PLUS_X", "AXIS_MINUS_X", "AXIS_PLUS_Y",
@@ -181,16 +146,7 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.property({"goals", GDEXTENSION_VARIANT_TYPE_ARRAY, hint::PROPERTY_HINT_TYPE_STRING, "24/17:IKChainGoal"},
              "set_goals", "get_goals");
   b.group("Solver", "");
-  b.property({"solver", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_ENUM, solver_hint.c_str()}, "set_solver",
-             "get_solver");
-  b.property({"max_iterations", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_RANGE, "1,1000,1"},
-             "set_max_iterations", "get_max_iterations");
-  b.property({"tolerance", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
-              "0.000001,1,0.000001,exp,suffix:m"},
-             "set_tolerance", "get_tolerance");
-  b.property({"orientation_tolerance", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
-              "0.000001,1,0.000001,exp,suffix:rad"},
-             "set_orientation_tolerance", "get_orientation_tolerance");
+  IKModifier::bind_solver_settings(b, "IKChain.Solver", /*trees_only=*/false);
   b.property({"soft_reach", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0,1,0.001,or_greater,suffix:m"},
              "set_soft_reach", "get_soft_reach");
   b.property({"time_budget_usec", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
@@ -199,7 +155,7 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.property({"max_restarts", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_RANGE, "0,100,1"},
              "set_max_restarts", "get_max_restarts");
   b.property({"restart_seed", GDEXTENSION_VARIANT_TYPE_INT}, "set_restart_seed", "get_restart_seed");
-  b.property({"deterministic", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_deterministic", "is_deterministic");
+  IKModifier::bind_deterministic(b);
 
   b.virtual_method("_process_modification_with_delta",
                    gdx::gen::kVirtualHash_SkeletonModifier3D__process_modification_with_delta,
@@ -215,21 +171,9 @@ void IKChain::unregister_class() {
   g_names = nullptr;
 }
 
-IKChain::IKChain(gdx::ObjectPtr owner) : owner_(owner) {
-  options_.max_iterations = int(max_iterations_);
-  options_.position_tolerance = tolerance_;
-  options_.orientation_tolerance = orientation_tolerance_;
-  options_.warm_start = !deterministic_;
-}
+IKChain::IKChain(gdx::ObjectPtr owner) : IKModifier(owner, kTraits) { options_.warm_start = !deterministic_; }
 
 // ---------------------------------------------------------------- properties
-
-void IKChain::mark_dirty() {
-  dirty_ = true;
-  gdx::Node::unchecked(owner_).update_configuration_warnings();
-}
-
-void IKChain::settings_changed() { gdx::Node::unchecked(owner_).update_configuration_warnings(); }
 
 void IKChain::set_root_bone(const gdx::String& name) {
   std::string v = name.utf8();
@@ -283,14 +227,6 @@ void IKChain::set_use_target_transform(bool on) {
 
 void IKChain::set_target_transform(const gdx::Transform3D& transform) { target_transform_ = transform; }
 
-void IKChain::set_solver(int64_t solver) {
-  const int64_t used = std::clamp<int64_t>(solver, SOLVER_TWO_BONE, SOLVER_AUTO);
-  if (used != solver) report_clamped(kClass, "solver", "0..6 (IKChain.SOLVER_*)", double(solver), double(used));
-  if (used == solver_) return;
-  solver_ = used;
-  settings_changed();
-}
-
 void IKChain::set_goal_mode(int64_t mode) {
   const int64_t used = std::clamp<int64_t>(mode, GOAL_MODE_REACH, GOAL_MODE_AIM);
   if (used != mode) report_clamped(kClass, "goal_mode", "0..1 (IKChain.GOAL_MODE_*)", double(mode), double(used));
@@ -336,26 +272,6 @@ void IKChain::set_goals(const gdx::Array& goals) {
   mark_dirty();
 }
 
-void IKChain::set_max_iterations(int64_t n) {
-  max_iterations_ = std::clamp<int64_t>(n, 1, 1000);
-  if (max_iterations_ != n) report_clamped(kClass, "max_iterations", "1..1000", double(n), double(max_iterations_));
-  options_.max_iterations = int(max_iterations_);
-}
-
-void IKChain::set_tolerance(double units) {
-  const double used = std::isnan(units) ? tolerance_ : std::clamp(units, 1e-6, 1.0);
-  if (used != units) report_clamped(kClass, "tolerance", "[1e-06, 1] (skeleton units)", units, used);
-  tolerance_ = used;
-  options_.position_tolerance = tolerance_;
-}
-
-void IKChain::set_orientation_tolerance(double radians) {
-  const double used = std::isnan(radians) ? orientation_tolerance_ : std::clamp(radians, 1e-6, 1.0);
-  if (used != radians) report_clamped(kClass, "orientation_tolerance", "[1e-06, 1] rad", radians, used);
-  orientation_tolerance_ = used;
-  options_.orientation_tolerance = orientation_tolerance_;
-}
-
 void IKChain::set_soft_reach(double units) {
   const double used = std::isnan(units) ? soft_reach_ : std::clamp(units, 0.0, 1e6);
   if (used != units) report_clamped(kClass, "soft_reach", "[0, 1e+06] (skeleton units; 0 = off)", units, used);
@@ -380,11 +296,6 @@ void IKChain::set_restart_seed(int64_t seed) {
   restart_seed_ = seed;
   // All 64 bits (a negative seed is its two's complement): different seeds give different restarts.
   options_.restart_seed = uint64_t(seed);
-}
-
-void IKChain::set_deterministic(bool on) {
-  deterministic_ = on;
-  options_.warm_start = !on;
 }
 
 // ---------------------------------------------------------------- script API
@@ -463,40 +374,10 @@ bool IKChain::validate_property(GDExtensionPropertyInfo& property) {
     return extend_tip_bone_ ? false : hide();
   if (g_names->aim_axis.equals(property.name)) return goal_mode_ == GOAL_MODE_AIM ? false : hide();
   if (g_names->use_target_rotation.equals(property.name)) return goal_mode_ == GOAL_MODE_REACH ? false : hide();
-  const bool is_bone = g_names->root_bone.equals(property.name) || g_names->tip_bone.equals(property.name);
-  if (!is_bone) return false;
-  const gdx::Skeleton3D skel = skeleton();
-  if (!skel) {
-    property.hint = uint32_t(hint::PROPERTY_HINT_NONE);  // free text until there is a skeleton
-    return true;
-  }
-  // The same drop-down Godot's own modifiers use: "bone0,bone1,...".
-  const gdx::String names(skel.get_concatenated_bone_names());
-  property.hint = uint32_t(hint::PROPERTY_HINT_ENUM);
-  gdx::String::assign_to(property.hint_string, names);
+  if (!is_bone_property(property.name)) return false;
+  bone_drop_down(property);
   return true;
 }
 
-gdx::Skeleton3D IKChain::skeleton() const {
-  // Before the node enters the tree get_skeleton() has not cached it yet, so fall back to the
-  // parent (the editor asks for warnings at any time).
-  const gdx::SkeletonModifier3D self = gdx::SkeletonModifier3D::unchecked(owner_);
-  gdx::Skeleton3D skel = self.get_skeleton();
-  if (!skel) skel = gdx::Skeleton3D::cast(self.get_parent());
-  return skel;
-}
-
-void IKChain::watch_skeleton(const gdx::Skeleton3D& skel) {
-  if (!skel || g_names == nullptr) return;
-  const gdx::Callable callback(owner_, g_names->skeleton_changed);
-  for (const gdx::StringName* signal : {&g_names->bone_list_changed, &g_names->rest_updated}) {
-    if (!skel.is_connected(*signal, callback)) skel.connect(*signal, callback);
-  }
-}
-
-void IKChain::skeleton_changed() {
-  dirty_ = true;
-  gdx::Object(owner_).notify_property_list_changed();
-}
 
 }  // namespace ikchain::godot

@@ -21,23 +21,13 @@
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
 #include "core/ikchain.hpp"
+#include "ik_modifier.hpp"
 #include "skeleton_chain.hpp"
 
 namespace ikchain::godot {
 
-class IKChain {
+class IKChain : public IKModifier {
  public:
-  // Values are saved in scenes: never renumber. The names, hint string and core mapping come
-  // from one table (kSolverTable in ik_chain.cpp).
-  enum Solver : int64_t {
-    SOLVER_TWO_BONE = 0,
-    SOLVER_CCD = 1,
-    SOLVER_JACOBIAN = 2,
-    SOLVER_DLS = 3,
-    SOLVER_BFGS = 4,
-    SOLVER_FABRIK = 5,
-    SOLVER_AUTO = 6,
-  };
   enum GoalMode : int64_t { GOAL_MODE_REACH = 0, GOAL_MODE_AIM = 1 };
   enum Axis : int64_t {
     AXIS_PLUS_X = 0,
@@ -47,9 +37,8 @@ class IKChain {
     AXIS_PLUS_Z = 4,
     AXIS_MINUS_Z = 5,
   };
+  // The Solver values are the table in solver_choice.hpp (saved in scenes: never renumbered).
   static constexpr int64_t kDefaultMaxIterations = 64;
-  static constexpr double kDefaultTolerance = 1e-4;             // skeleton units
-  static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
 
   // Class-wide StringNames: created at SCENE init, destroyed at SCENE deinit.
   static void register_class(gdx::ClassRecord& record);
@@ -74,8 +63,6 @@ class IKChain {
   bool is_using_target_transform() const { return use_target_transform_; }
   void set_target_transform(const gdx::Transform3D& transform);
   gdx::Transform3D get_target_transform() const { return target_transform_; }
-  void set_solver(int64_t solver);
-  int64_t get_solver() const { return solver_; }
   void set_goal_mode(int64_t mode);
   int64_t get_goal_mode() const { return goal_mode_; }
   void set_aim_axis(const gdx::Vector3& axis);
@@ -90,12 +77,6 @@ class IKChain {
   gdx::Array get_joints() const { return joints_; }
   void set_goals(const gdx::Array& goals);
   gdx::Array get_goals() const { return goals_; }
-  void set_max_iterations(int64_t n);
-  int64_t get_max_iterations() const { return max_iterations_; }
-  void set_tolerance(double units);
-  double get_tolerance() const { return tolerance_; }
-  void set_orientation_tolerance(double radians);
-  double get_orientation_tolerance() const { return orientation_tolerance_; }
   void set_soft_reach(double units);
   double get_soft_reach() const { return soft_reach_; }
   void set_time_budget_usec(double usec);
@@ -104,8 +85,6 @@ class IKChain {
   int64_t get_max_restarts() const { return max_restarts_; }
   void set_restart_seed(int64_t seed);
   int64_t get_restart_seed() const { return restart_seed_; }
-  void set_deterministic(bool on);
-  bool is_deterministic() const { return deterministic_; }
 
   // ---- script API
   // The last solve: see get_last_result() in the class reference for the keys.
@@ -132,7 +111,6 @@ class IKChain {
   void process_modification(double delta);
   void notification(int32_t what);
   gdx::PackedStringArray get_configuration_warnings() const;
-  void skeleton_changed();  // virtual _skeleton_changed and the skeleton's bone signals
 
  private:
   struct Problem {
@@ -148,9 +126,6 @@ class IKChain {
     gdx::NodePath target;
   };
 
-  void mark_dirty();
-  void settings_changed();  // a setting that needs no rebuild but may change the warnings
-  gdx::Skeleton3D skeleton() const;
   // Bones, joint settings and the solver's fit to the goals; one entry per problem, with its fix.
   void collect_chain_problems(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems,
                               SkeletonChainDesc* desc) const;
@@ -167,7 +142,6 @@ class IKChain {
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
   bool ancestry_changed(const gdx::Skeleton3D& skeleton) const;
   void record_ancestry(const gdx::Skeleton3D& skeleton);
-  void watch_skeleton(const gdx::Skeleton3D& skeleton);
   // The solve of one frame; false when nothing was written.
   bool run(const gdx::Skeleton3D& skeleton);
   bool assemble_goals(const gdx::Skeleton3D& skeleton);
@@ -179,8 +153,6 @@ class IKChain {
   void clear_runtime_reports() { runtime_reported_.clear(); }
   void set_invalid_result(const char* message);
 
-  gdx::ObjectPtr owner_;
-
   // Settings.
   std::string root_bone_;
   std::string tip_bone_;
@@ -190,7 +162,6 @@ class IKChain {
   gdx::NodePath target_;
   bool use_target_transform_ = false;
   gdx::Transform3D target_transform_;
-  int64_t solver_ = SOLVER_AUTO;
   int64_t goal_mode_ = GOAL_MODE_REACH;
   gdx::Vector3 aim_axis_{0, 1, 0};
   bool use_target_rotation_ = false;
@@ -198,17 +169,12 @@ class IKChain {
   gdx::NodePath pole_target_;
   gdx::Array joints_;
   gdx::Array goals_;
-  int64_t max_iterations_ = kDefaultMaxIterations;
-  double tolerance_ = kDefaultTolerance;
-  double orientation_tolerance_ = kDefaultOrientationTolerance;
   double time_budget_usec_ = 0.0;
   double soft_reach_ = 0.0;  // skeleton units; 0 = off
   int64_t max_restarts_ = 0;
   int64_t restart_seed_ = 1;
-  bool deterministic_ = false;
 
   // Built lazily from the skeleton (rebuild()); the per-frame path only reads these.
-  bool dirty_ = true;
   bool chain_ok_ = false;
   uint64_t built_skeleton_id_ = 0;
   int64_t built_skeleton_version_ = -1;
@@ -227,7 +193,6 @@ class IKChain {
   std::vector<BonePose> bone_poses_;
   std::vector<glm::dquat> old_rotations_, new_rotations_, blended_rotations_;
   Workspace workspace_;
-  SolverOptions options_;
   Eigen::VectorXd params_;
   // Skeleton3D restores the animated pose before modifiers run, so the pose read each frame is the
   // animation's: a warm start continues from our own last solution instead (frame continuity).

@@ -83,8 +83,8 @@ void IKChain::collect_chain_problems(const gdx::Skeleton3D& skel, std::vector<Pr
     settings[k] = joint;
   }
 
-  if (solver_ != SOLVER_AUTO) {
-    const SolverInfo& info = solver_info(SolverKind(solver_));
+  if (!solver_is_auto()) {
+    const SolverInfo& info = solver_info(choice_kind());
     if (info.joint_count != 0 && size_t(info.joint_count) != joint_count)
       problems.push_back({"solver", std::string("IKChain: solver ") + info.display_name + " needs exactly " +
                                         std::to_string(info.joint_count) + " joints (root_bone, its child, then "
@@ -131,7 +131,7 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
     problems.push_back({"aim_axis", "IKChain: aim_axis is zero; set the tip bone's axis that should point at the "
                                     "target, e.g. (0, 1, 0)."});
   // What the chosen solver can pursue (the core's solver table); Auto always picks one that can.
-  const SolverInfo* info = solver_ == SOLVER_AUTO ? nullptr : &solver_info(SolverKind(solver_));
+  const SolverInfo* info = solver_is_auto() ? nullptr : &solver_info(choice_kind());
   const bool orientation = (goal_mode_ == GOAL_MODE_AIM) || (use_target_rotation_ && rotation_weight_ > 0.0);
   if (info != nullptr && orientation && !info->orientation_goals)
     problems.push_back({"solver", std::string("IKChain: solver ") + info->display_name +
@@ -142,7 +142,7 @@ void IKChain::collect_goal_problems(std::vector<Problem>& problems) const {
 void IKChain::resolve_goals(const SkeletonChain& chain, std::vector<ExtraGoal>* goals, std::vector<Problem>& problems,
                             std::vector<Problem>& unmovable) const {
   const gdx::Node self = gdx::Node::unchecked(owner_);
-  const SolverInfo* info = solver_ == SOLVER_AUTO ? nullptr : &solver_info(SolverKind(solver_));
+  const SolverInfo* info = solver_is_auto() ? nullptr : &solver_info(choice_kind());
   for (int64_t i = 0; i < goals_.size(); ++i) {
     gdx::ObjectPtr object = nullptr;
     gdx::variant_to(goals_.at(i), object);
@@ -303,7 +303,7 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
 }
 
 SolverKind IKChain::resolved_solver() const {
-  if (solver_ != SOLVER_AUTO) return SolverKind(solver_);
+  if (!solver_is_auto()) return choice_kind();
   // Auto: the analytic solver when it is exact for the chain and goals (2 free ball joints, one
   // position goal); otherwise damped least squares, the fastest of the robust solvers in the
   // benchmark (docs/benchmarks.md), which pursues every goal kind and respects limits.
