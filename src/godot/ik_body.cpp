@@ -106,11 +106,13 @@ void IKBody::set_floating_root(bool on) {
 }
 
 void IKBody::set_effectors(const gdx::Array& effectors) {
+  stop_listening_to(effectors_);  // the rebuild listens to the new ones
   effectors_ = effectors;
   mark_dirty();
 }
 
 void IKBody::set_joints(const gdx::Array& joints) {
+  stop_listening_to(joints_);
   joints_ = joints;
   mark_dirty();
 }
@@ -448,8 +450,33 @@ gdx::PackedStringArray IKBody::get_configuration_warnings() const {
 // ---------------------------------------------------------------- building
 
 bool IKBody::needs_rebuild(const gdx::Skeleton3D& skel) const {
-  return dirty_ || skel.instance_id() != built_skeleton_id_ || skel.get_version() != built_skeleton_version_ ||
-         IKChainJoint::generation() != built_settings_generation_ || effectors_.size() != effector_array_size_;
+  if (dirty_ || skel.instance_id() != built_skeleton_id_ || skel.get_version() != built_skeleton_version_ ||
+      effectors_.size() != effector_array_size_ || joints_.size() != built_joints_size_)
+    return true;
+  // A resource emitted `changed`: a target or a weight (read every frame) needs no rebuild.
+  if (!resources_touched_) return false;
+  resources_touched_ = false;
+  return resource_revision() != built_revision_;
+}
+
+uint64_t IKBody::resource_revision() const {
+  uint64_t h = 0;
+  auto mix = [&h](gdx::ObjectPtr object, uint64_t revision) {
+    h = h * 1099511628211ull + uint64_t(reinterpret_cast<uintptr_t>(object)) + revision;
+  };
+  for (int64_t i = 0; i < joints_.size(); ++i) {
+    gdx::ObjectPtr object = nullptr;
+    gdx::variant_to(joints_.at(i), object);
+    const IKChainJoint* j = IKChainJoint::from_object(object);
+    mix(object, j ? j->revision() : 0);
+  }
+  for (int64_t i = 0; i < effectors_.size(); ++i) {
+    gdx::ObjectPtr object = nullptr;
+    gdx::variant_to(effectors_.at(i), object);
+    const IKBodyEffector* e = IKBodyEffector::from_object(object);
+    mix(object, e ? e->revision() : 0);
+  }
+  return h;
 }
 
 void IKBody::rebuild(const gdx::Skeleton3D& skel) {
@@ -462,7 +489,12 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
   if (skel && skel.instance_id() != built_skeleton_id_) watch_skeleton(skel);
   built_skeleton_id_ = skel.instance_id();
   built_skeleton_version_ = skel ? skel.get_version() : -1;
-  built_settings_generation_ = IKChainJoint::generation();
+  built_revision_ = resource_revision();
+  resources_touched_ = false;
+  built_joints_size_ = joints_.size();
+  // Edits of these resources tell this node (and no other).
+  listen_to(joints_);
+  listen_to(effectors_);
   effector_array_size_ = int(effectors_.size());
   effector_position_error_.assign(size_t(effector_array_size_), kNaN);
   effector_rotation_error_.assign(size_t(effector_array_size_), kNaN);

@@ -104,6 +104,9 @@ class IKBody : public IKModifier {
   void configure(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems, SkeletonTreeDesc* desc,
                  std::vector<Slot>* slots, std::vector<gdx::Variant>* held) const;
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
+  void on_resource_changed() override { resources_touched_ = true; }
+  // The joints' and effectors' identities and revisions in one number.
+  uint64_t resource_revision() const;
   void rebuild(const gdx::Skeleton3D& skeleton);
   bool run(const gdx::Skeleton3D& skeleton);
   void report_runtime(const std::string& message);
@@ -120,7 +123,10 @@ class IKBody : public IKModifier {
   bool body_ok_ = false;
   uint64_t built_skeleton_id_ = 0;
   int64_t built_skeleton_version_ = -1;
-  uint64_t built_settings_generation_ = 0;
+  // The joints' and effectors' revisions as built; checked only after one of them emitted `changed`.
+  uint64_t built_revision_ = 0;
+  mutable bool resources_touched_ = false;
+  int64_t built_joints_size_ = 0;
   std::vector<Problem> body_problems_;
   SkeletonTree mapping_;
   int base_bone_ = -1;

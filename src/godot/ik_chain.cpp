@@ -263,11 +263,13 @@ void IKChain::set_pole_target(const gdx::NodePath& path) {
 }
 
 void IKChain::set_joints(const gdx::Array& joints) {
+  stop_listening_to(joints_);  // the rebuild listens to the new ones
   joints_ = joints;
   mark_dirty();
 }
 
 void IKChain::set_goals(const gdx::Array& goals) {
+  stop_listening_to(goals_);
   goals_ = goals;
   mark_dirty();
 }

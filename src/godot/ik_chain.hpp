@@ -178,7 +178,8 @@ class IKChain : public IKModifier {
   bool chain_ok_ = false;
   uint64_t built_skeleton_id_ = 0;
   int64_t built_skeleton_version_ = -1;
-  uint64_t built_settings_generation_ = 0;
+  // The arrays' sizes as built: an element appended in place (ik.joints.append(j)) calls no setter.
+  int64_t built_joints_size_ = 0, built_goals_size_ = 0;
   std::vector<Problem> chain_problems_;
   SkeletonChain mapping_;  // skeleton <-> chain
   int base_bone_ = -1;     // root_bone's parent, -1 = skeleton space

@@ -223,7 +223,7 @@ gdx::PackedStringArray IKChain::get_configuration_warnings() const {
 
 bool IKChain::needs_rebuild(const gdx::Skeleton3D& skel) const {
   return dirty_ || skel.instance_id() != built_skeleton_id_ || skel.get_version() != built_skeleton_version_ ||
-         IKChainJoint::generation() != built_settings_generation_ ||
+         joints_.size() != built_joints_size_ || goals_.size() != built_goals_size_ ||
          // A bone renamed under our chain (the version does not count renames in every engine).
          (chain_ok_ && (skel.find_bone(root_bone_name_) != root_bone_index_ ||
                         skel.find_bone(tip_bone_name_) != tip_bone_index_)) ||
@@ -261,7 +261,11 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
   if (skel && skel.instance_id() != built_skeleton_id_) watch_skeleton(skel);
   built_skeleton_id_ = skel.instance_id();
   built_skeleton_version_ = skel ? skel.get_version() : -1;
-  built_settings_generation_ = IKChainJoint::generation();
+  built_joints_size_ = joints_.size();
+  built_goals_size_ = goals_.size();
+  // Edits of these resources mark this node dirty (and no other).
+  listen_to(joints_);
+  listen_to(goals_);
   record_ancestry(skel);
 
   SkeletonChainDesc desc;
