@@ -424,19 +424,14 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
   if (slots) *slots = found;
 }
 
-gdx::PackedStringArray IKBody::get_configuration_warnings() const {
+gdx::PackedStringArray IKBody::get_configuration_warnings() {
+  const gdx::Skeleton3D skel = skeleton();
+  // The rebuild the next frame would do anyway, done now: what the builder rejects comes from the
+  // node's own body (body_problems_), not from a body built for the warnings alone.
+  if (skel ? needs_rebuild(skel) : (dirty_ || built_skeleton_id_ != 0)) rebuild(skel);
   std::vector<Problem> problems;
-  SkeletonTreeDesc desc;
-  configure(skeleton(), problems, &desc, nullptr, nullptr);
-  bool fatal = false;
-  for (const Problem& p : problems) fatal = fatal || p.fatal;
-  if (!fatal && !desc.bones.empty()) {
-    SkeletonTree check;
-    const Message built = check.build(desc);
-    if (!built.empty()) problems.push_back({"joints", std::string("IKBody: cannot build the body: ") + built.c_str()});
-    else if (Message w = check.scale_warning(); !w.empty())
-      problems.push_back({"root_bone", std::string("IKBody: ") + w.c_str(), false});
-  }
+  configure(skel, problems, nullptr, nullptr, nullptr);  // the rebuild's pass, for what changed since
+  if (!scale_note_.empty()) problems.push_back({"root_bone", scale_note_, false});
   for (const Problem& p : body_problems_) {
     bool seen = false;
     for (const Problem& q : problems) seen = seen || q.message == p.message;
@@ -484,6 +479,7 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
   const bool was_ok = body_ok_;
   body_ok_ = false;
   body_problems_.clear();
+  scale_note_.clear();
   slots_.clear();
   held_.clear();
   if (skel && skel.instance_id() != built_skeleton_id_) watch_skeleton(skel);
@@ -510,6 +506,7 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
     if (!error.empty())
       body_problems_.push_back({"joints", std::string("IKBody: cannot build the body: ") + error.c_str()});
     built = error.empty();
+    if (Message w = mapping_.scale_warning(); built && !w.empty()) scale_note_ = std::string("IKBody: ") + w.c_str();
   }
   if (built) {
     base_bone_ = int(skel.get_bone_parent(mapping_.skeleton_bone(0)));

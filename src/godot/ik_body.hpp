@@ -76,7 +76,7 @@ class IKBody : public IKModifier {
   bool validate_property(GDExtensionPropertyInfo& property);
   void process_modification(double delta);
   void notification(int32_t what);
-  gdx::PackedStringArray get_configuration_warnings() const;
+  gdx::PackedStringArray get_configuration_warnings();
 
  private:
   struct Problem {
@@ -128,6 +128,7 @@ class IKBody : public IKModifier {
   mutable bool resources_touched_ = false;
   int64_t built_joints_size_ = 0;
   std::vector<Problem> body_problems_;
+  std::string scale_note_;  // the built body's non-uniform scale warning (empty: none)
   SkeletonTree mapping_;
   int base_bone_ = -1;
   std::vector<Slot> slots_;

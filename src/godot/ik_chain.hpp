@@ -110,7 +110,7 @@ class IKChain : public IKModifier {
   bool validate_property(GDExtensionPropertyInfo& property);
   void process_modification(double delta);
   void notification(int32_t what);
-  gdx::PackedStringArray get_configuration_warnings() const;
+  gdx::PackedStringArray get_configuration_warnings();
 
  private:
   struct Problem {
@@ -138,6 +138,17 @@ class IKChain : public IKModifier {
   // is left out, or a goal without a target node is skipped per frame).
   void resolve_goals(const SkeletonChain& chain, std::vector<ExtraGoal>* goals, std::vector<Problem>& problems,
                      std::vector<Problem>& unmovable) const;
+  // What the one configuration pass (configure()) makes of the settings; the rebuild builds from
+  // it, the warnings list it.
+  struct Config {
+    std::vector<Problem> fatal;  // the chain cannot run (the rebuild stops on the first)
+    std::vector<Problem> notes;  // shown; the chain runs without what they spoil
+    SkeletonChainDesc desc;
+    std::vector<ExtraGoal> goals;
+  };
+  // The one configuration pass, for the rebuild (build: the chain is built from it) and the
+  // warnings (the chain as built: they rebuild it first when stale, never build one of their own).
+  void configure(const gdx::Skeleton3D& skeleton, bool build, Config& config);
   void rebuild(const gdx::Skeleton3D& skeleton);
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
   bool ancestry_changed(const gdx::Skeleton3D& skeleton) const;
@@ -176,6 +187,7 @@ class IKChain : public IKModifier {
 
   // Built lazily from the skeleton (rebuild()); the per-frame path only reads these.
   bool chain_ok_ = false;
+  bool mapping_built_ = false;  // mapping_ holds the chain of the last rebuild's settings
   uint64_t built_skeleton_id_ = 0;
   int64_t built_skeleton_version_ = -1;
   // The arrays' sizes as built: an element appended in place (ik.joints.append(j)) calls no setter.

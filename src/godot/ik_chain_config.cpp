@@ -193,18 +193,32 @@ void IKChain::resolve_goals(const SkeletonChain& chain, std::vector<ExtraGoal>* 
   }
 }
 
-gdx::PackedStringArray IKChain::get_configuration_warnings() const {
-  std::vector<Problem> problems;
-  SkeletonChainDesc desc;
-  collect_chain_problems(skeleton(), problems, &desc);
-  // What the builder rejects (limits, lengths), checked on the settings as they are now.
-  SkeletonChain check;
-  if (!desc.bones.empty()) {
-    const Message built = check.build(desc);
-    if (!built.empty()) problems.push_back({"joints", std::string("IKChain: cannot build the chain: ") + built.c_str()});
+void IKChain::configure(const gdx::Skeleton3D& skel, bool build, Config& c) {
+  collect_chain_problems(skel, c.fatal, &c.desc);
+  if (build) {
+    mapping_built_ = false;
+    // Built whenever there are bones, even past other problems, so that what the builder rejects
+    // (limits, lengths) shows with them.
+    if (!c.desc.bones.empty()) {
+      const Message built = mapping_.build(c.desc);
+      if (!built.empty()) c.fatal.push_back({"joints", std::string("IKChain: cannot build the chain: ") + built.c_str()});
+      mapping_built_ = built.empty();
+    }
   }
-  collect_goal_problems(problems);
-  resolve_goals(check, nullptr, problems, problems);
+  collect_goal_problems(c.notes);
+  // Goals resolve against the chain these settings build (the warnings' pass runs after the rebuild).
+  static const SkeletonChain kNoChain;
+  resolve_goals(mapping_built_ ? mapping_ : kNoChain, &c.goals, c.notes, c.fatal);
+}
+
+gdx::PackedStringArray IKChain::get_configuration_warnings() {
+  const gdx::Skeleton3D skel = skeleton();
+  // The rebuild the next frame would do anyway, done now: the warnings read the node's own chain.
+  if (skel ? needs_rebuild(skel) : (dirty_ || built_skeleton_id_ != 0)) rebuild(skel);
+  Config c;
+  configure(skel, /*build=*/false, c);
+  std::vector<Problem> problems = std::move(c.fatal);
+  problems.insert(problems.end(), c.notes.begin(), c.notes.end());
   if (chain_ok_ && mapping_.has_non_uniform_scale()) problems.push_back({"root_bone", mapping_.scale_warning().c_str()});
   // The chain as last built: what the builder rejected (limits, lengths) and what the solver refused.
   for (const Problem& p : chain_problems_) {
@@ -268,13 +282,10 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
   listen_to(goals_);
   record_ancestry(skel);
 
-  SkeletonChainDesc desc;
-  collect_chain_problems(skel, chain_problems_, &desc);
-  if (chain_problems_.empty()) {
-    const Message built = mapping_.build(desc);
-    if (!built.empty())
-      chain_problems_.push_back({"joints", std::string("IKChain: cannot build the chain: ") + built.c_str()});
-  }
+  Config config;
+  configure(skel, /*build=*/true, config);
+  chain_problems_ = std::move(config.fatal);  // the notes only show as warnings (the chain runs without them)
+  const SkeletonChainDesc& desc = config.desc;
   if (chain_problems_.empty()) {
     const int n = mapping_.joint_count();
     const int bones = mapping_.bone_count();
@@ -283,25 +294,20 @@ void IKChain::rebuild(const gdx::Skeleton3D& skel) {
     tip_bone_name_ = text(tip_bone_);
     root_bone_index_ = desc.bones.front().skeleton_bone;
     tip_bone_index_ = desc.bones.back().skeleton_bone;
-
-    // Extra goals: effector and frame of each IKChainGoal. A goal on a bone the chain cannot move
-    // stops the chain; the other problems only show as warnings (the chain runs without the goal).
-    extra_goals_.clear();
-    std::vector<Problem> warnings_only;
-    resolve_goals(mapping_, &extra_goals_, warnings_only, chain_problems_);
-    if (chain_problems_.empty()) {
-      const int max_goals = 2 + int(extra_goals_.size());
-      workspace_.reset(mapping_.chain(), max_goals);
-      goal_buffer_.assign(size_t(max_goals), Goal());
-      params_ = Eigen::VectorXd::Zero(mapping_.chain().dof_count());
-      params_from_last_solve_ = false;
-      have_good_pose_ = false;
-      bone_poses_.assign(size_t(bones), BonePose());
-      old_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
-      new_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
-      blended_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
-      chain_ok_ = true;
-    }
+    // Extra goals: effector and frame of each IKChainGoal (a goal on a bone the chain cannot move
+    // is a fatal problem of the pass).
+    extra_goals_ = std::move(config.goals);
+    const int max_goals = 2 + int(extra_goals_.size());
+    workspace_.reset(mapping_.chain(), max_goals);
+    goal_buffer_.assign(size_t(max_goals), Goal());
+    params_ = Eigen::VectorXd::Zero(mapping_.chain().dof_count());
+    params_from_last_solve_ = false;
+    have_good_pose_ = false;
+    bone_poses_.assign(size_t(bones), BonePose());
+    old_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
+    new_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
+    blended_rotations_.assign(size_t(n), glm::dquat(1.0, 0.0, 0.0, 0.0));
+    chain_ok_ = true;
   }
   if (chain_ok_ != was_ok || chain_problems_.size() != old_problem_count) settings_changed();
 }

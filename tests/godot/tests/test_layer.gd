@@ -176,3 +176,63 @@ func _small_body() -> Dictionary:
 	var e := Body.effector("LeftHand", target)
 	body.effectors = [e]
 	return {"body": body, "effector": e}
+
+
+# The warnings and the rebuild come from one configuration pass: what stops the chain (the
+# result's message after a solve) is among the warnings, a chain that runs has none, and reading
+# the warnings of an unchanged node does not rebuild it (its next frame stays warm).
+func test_warnings_and_rebuild_agree() -> void:
+	# Limits the chain builder rejects (min > max).
+	var a := _rig_with_joint(21, Vector3(0, 0, 0))
+	var bad: IKChainJoint = a["joint"]
+	bad.type = IKChainJoint.JOINT_HINGE
+	bad.hinge_limit_enabled = true
+	bad.hinge_min = 1.0
+	bad.hinge_max = -1.0
+	# A goal on the root bone's origin, which no joint of the chain moves.
+	var b := _rig_with_joint(22, Vector3(3, 0, 0))
+	var goal := IKChainGoal.new()
+	goal.bone_name = "j0"
+	goal.target = NodePath("../../Target")
+	(b["ik"] as IKChain).goals = [goal]
+	var good := _rig_with_joint(23, Vector3(6, 0, 0))
+	await frames(2)
+	for rig in [a, b]:
+		var ik: IKChain = rig["ik"]
+		var warnings := ik._get_configuration_warnings()
+		var r: Dictionary = ik.solve_now()
+		check(not r["usable"], "%s: the chain does not run" % rig["container"].name)
+		check(String(r["message"]) != "" and String(r["message"]) in warnings,
+				"the rebuild's problem '%s' is a warning: %s" % [r["message"], warnings])
+	var ik_good: IKChain = good["ik"]
+	check_eq(ik_good._get_configuration_warnings().size(), 0, "a chain that runs: no warning")
+	for i in 3:
+		ik_good._get_configuration_warnings()
+	await frames(1)
+	check(ik_good.is_last_usable(), "the good chain runs")
+	check_le(ik_good.get_last_initial_error(), 1e-3, "reading the warnings did not rebuild the chain (still warm)")
+	# Fixed, the warnings and the chain agree again, without a frame in between.
+	bad.hinge_max = 1.5
+	check_eq((a["ik"] as IKChain)._get_configuration_warnings().size(), 0, "fixed limits: no warning")
+	check((a["ik"] as IKChain).solve_now()["usable"], "fixed limits: the chain runs")
+
+
+func test_body_warnings_and_rebuild_agree() -> void:
+	var body_rig := _small_body()
+	var body: IKBody = body_rig["body"]
+	var knee := IKChainJoint.new()
+	knee.bone_name = "LeftLowerArm"
+	knee.type = IKChainJoint.JOINT_HINGE
+	knee.hinge_limit_enabled = true
+	knee.hinge_min = 1.0
+	knee.hinge_max = -1.0
+	body.joints = [knee]
+	await frames(2)
+	var warnings := body._get_configuration_warnings()
+	var r: Dictionary = body.solve_now()
+	check(not r["usable"], "the body does not run")
+	check(String(r["message"]) != "" and String(r["message"]) in warnings,
+			"the rebuild's problem '%s' is a warning: %s" % [r["message"], warnings])
+	knee.hinge_max = 1.5
+	check_eq(body._get_configuration_warnings().size(), 0, "fixed: no warning")
+	check(body.solve_now()["usable"], "fixed: the body runs")
