@@ -40,8 +40,6 @@ void IKBody::register_class(gdx::ClassRecord& record) {
   gdx::ClassBuilder<IKBody> b(record);
   b.register_class();
 
-  b.method("set_root_bone", &IKBody::set_root_bone, {"bone_name"});
-  b.method("get_root_bone", &IKBody::get_root_bone);
   b.method("set_floating_root", &IKBody::set_floating_root, {"enabled"});
   b.method("is_floating_root", &IKBody::is_floating_root);
   b.method("set_effectors", &IKBody::set_effectors, {"effectors"});
@@ -63,8 +61,7 @@ void IKBody::register_class(gdx::ClassRecord& record) {
   b.method("setup_humanoid", &IKBody::setup_humanoid);
   b.method("_get_configuration_warnings", &IKBody::get_configuration_warnings);
 
-  b.property({"root_bone", GDEXTENSION_VARIANT_TYPE_STRING, hint::PROPERTY_HINT_ENUM, ""}, "set_root_bone",
-             "get_root_bone");
+  IKModifier::bind_root_bone(b);
   b.property({"floating_root", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_floating_root", "is_floating_root");
   b.property({"effectors", GDEXTENSION_VARIANT_TYPE_ARRAY, hint::PROPERTY_HINT_TYPE_STRING, "24/17:IKBodyEffector"},
              "set_effectors", "get_effectors");
@@ -90,14 +87,6 @@ IKBody::IKBody(gdx::ObjectPtr owner) : IKModifier(owner, kTraits) {
 }
 
 // ---------------------------------------------------------------- properties
-
-void IKBody::set_root_bone(const gdx::String& name) {
-  std::string v = name.utf8();
-  if (v == root_bone_) return;
-  root_bone_ = std::move(v);
-  mark_dirty();
-}
-gdx::String IKBody::get_root_bone() const { return text(root_bone_); }
 
 void IKBody::set_floating_root(bool on) {
   if (on == floating_root_) return;

@@ -43,8 +43,6 @@ class IKBody : public IKModifier {
   explicit IKBody(gdx::ObjectPtr owner);
 
   // ---- properties
-  void set_root_bone(const gdx::String& name);
-  gdx::String get_root_bone() const;
   void set_floating_root(bool on);
   bool is_floating_root() const { return floating_root_; }
   void set_effectors(const gdx::Array& effectors);
@@ -114,7 +112,6 @@ class IKBody : public IKModifier {
   SolverKind resolved_solver() const;
 
   // Settings.
-  std::string root_bone_;
   bool floating_root_ = false;
   gdx::Array effectors_;
   gdx::Array joints_;

@@ -50,8 +50,6 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   gdx::ClassBuilder<IKChain> b(record);
   b.register_class();
 
-  b.method("set_root_bone", &IKChain::set_root_bone, {"bone_name"});
-  b.method("get_root_bone", &IKChain::get_root_bone);
   b.method("set_tip_bone", &IKChain::set_tip_bone, {"bone_name"});
   b.method("get_tip_bone", &IKChain::get_tip_bone);
   b.method("set_extend_tip_bone", &IKChain::set_extend_tip_bone, {"enabled"});
@@ -113,8 +111,7 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   constexpr const char* kAxisHint = "+X,-X,+Y,-Y,+Z,-Z";
 
   // root_bone / tip_bone get their bone-name drop-down in validate_property().
-  b.property({"root_bone", GDEXTENSION_VARIANT_TYPE_STRING, hint::PROPERTY_HINT_ENUM, ""}, "set_root_bone",
-             "get_root_bone");
+  IKModifier::bind_root_bone(b);
   b.property({"tip_bone", GDEXTENSION_VARIANT_TYPE_STRING, hint::PROPERTY_HINT_ENUM, ""}, "set_tip_bone",
              "get_tip_bone");
   b.property({"extend_tip_bone", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_extend_tip_bone", "is_extend_tip_bone");
@@ -174,14 +171,6 @@ void IKChain::unregister_class() {
 IKChain::IKChain(gdx::ObjectPtr owner) : IKModifier(owner, kTraits) { options_.warm_start = !deterministic_; }
 
 // ---------------------------------------------------------------- properties
-
-void IKChain::set_root_bone(const gdx::String& name) {
-  std::string v = name.utf8();
-  if (v == root_bone_) return;  // re-assigning the same value rebuilds nothing
-  root_bone_ = std::move(v);
-  mark_dirty();
-}
-gdx::String IKChain::get_root_bone() const { return text(root_bone_); }
 
 void IKChain::set_tip_bone(const gdx::String& name) {
   std::string v = name.utf8();

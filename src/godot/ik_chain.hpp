@@ -47,8 +47,6 @@ class IKChain : public IKModifier {
   explicit IKChain(gdx::ObjectPtr owner);
 
   // ---- properties
-  void set_root_bone(const gdx::String& name);
-  gdx::String get_root_bone() const;
   void set_tip_bone(const gdx::String& name);
   gdx::String get_tip_bone() const;
   void set_extend_tip_bone(bool on);
@@ -165,7 +163,6 @@ class IKChain : public IKModifier {
   void set_invalid_result(const char* message);
 
   // Settings.
-  std::string root_bone_;
   std::string tip_bone_;
   bool extend_tip_bone_ = false;
   int64_t tip_extension_axis_ = AXIS_PLUS_Y;

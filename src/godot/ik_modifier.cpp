@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "binding/classes.hpp"
 #include "property_report.hpp"
@@ -44,6 +46,14 @@ IKModifier::IKModifier(gdx::ObjectPtr owner, const Traits& traits)
 }
 
 // ---------------------------------------------------------------- shared properties
+
+void IKModifier::set_root_bone(const gdx::String& name) {
+  std::string v = name.utf8();
+  if (v == root_bone_) return;  // re-assigning the same value rebuilds nothing
+  root_bone_ = std::move(v);
+  mark_dirty();
+}
+gdx::String IKModifier::get_root_bone() const { return gdx::String(std::string_view(root_bone_)); }
 
 void IKModifier::set_solver(int64_t solver) {
   int64_t used = std::clamp<int64_t>(solver, min_solver_value(), max_solver_value());

@@ -9,6 +9,7 @@
 #include <gdextension_interface.h>
 
 #include <cstdint>
+#include <string>
 
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
@@ -37,6 +38,8 @@ class IKModifier {
   virtual ~IKModifier() = default;
 
   // ---- shared properties
+  void set_root_bone(const gdx::String& name);
+  gdx::String get_root_bone() const;
   void set_solver(int64_t solver);
   int64_t get_solver() const { return solver_; }
   void set_max_iterations(int64_t n);
@@ -59,6 +62,9 @@ class IKModifier {
   static void bind_solver_settings(gdx::ClassBuilder<C>& b, const char* solver_enum, bool trees_only);
   template <class C>
   static void bind_deterministic(gdx::ClassBuilder<C>& b);
+  // root_bone, with its bone-name drop-down (validate_property()).
+  template <class C>
+  static void bind_root_bone(gdx::ClassBuilder<C>& b);
 
  protected:
   IKModifier(gdx::ObjectPtr owner, const Traits& traits);
@@ -87,6 +93,7 @@ class IKModifier {
   const Traits& traits_;
   bool dirty_ = true;
 
+  std::string root_bone_;
   int64_t solver_ = kSolverAutoValue;
   int64_t max_iterations_;
   double tolerance_ = kDefaultTolerance;
@@ -126,6 +133,14 @@ void IKModifier::bind_deterministic(gdx::ClassBuilder<C>& b) {
   b.method("set_deterministic", &IKModifier::set_deterministic, {"enabled"});
   b.method("is_deterministic", &IKModifier::is_deterministic);
   b.property({"deterministic", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_deterministic", "is_deterministic");
+}
+
+template <class C>
+void IKModifier::bind_root_bone(gdx::ClassBuilder<C>& b) {
+  b.method("set_root_bone", &IKModifier::set_root_bone, {"bone_name"});
+  b.method("get_root_bone", &IKModifier::get_root_bone);
+  b.property({"root_bone", GDEXTENSION_VARIANT_TYPE_STRING, gdx::gen::PropertyHint::PROPERTY_HINT_ENUM, ""},
+             "set_root_bone", "get_root_bone");
 }
 
 }  // namespace ikchain::godot
