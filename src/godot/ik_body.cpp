@@ -22,7 +22,9 @@ namespace {
 
 constexpr const char* kClass = "IKBody";
 constexpr IKModifier::Traits kTraits{kClass, IKBody::kDefaultMaxIterations, "[1e-06, 1] m",
-                                     /*solver_change_rebuilds=*/true, /*deterministic_is_cold_start=*/false};
+                                     /*solver_change_rebuilds=*/true, /*deterministic_is_cold_start=*/false,
+                                     "IKBody: the parent is not a Skeleton3D.",
+                                     "IKBody: the parent is not a Skeleton3D; make IKBody a child of a Skeleton3D."};
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string effector_label(int index, const std::string& bone) {
@@ -152,11 +154,7 @@ gdx::Dictionary IKBody::get_last_result() const {
 }
 
 gdx::Dictionary IKBody::solve_now() {
-  const gdx::Skeleton3D skel = skeleton();
-  if (!skel)
-    set_invalid_result("IKBody: the parent is not a Skeleton3D; make IKBody a child of a Skeleton3D.");
-  else
-    run(skel);
+  run_now();
   return get_last_result();
 }
 
@@ -175,10 +173,6 @@ bool IKBody::validate_property(GDExtensionPropertyInfo& property) {
   if (!is_bone_property(property.name)) return false;
   bone_drop_down(property);
   return true;
-}
-
-void IKBody::notification(int32_t what) {
-  if (what == gdx::gen::kNode_NOTIFICATION_ENTER_TREE) gdx::Node::unchecked(owner_).update_configuration_warnings();
 }
 
 // ---------------------------------------------------------------- configuration
@@ -562,15 +556,6 @@ void IKBody::set_invalid_result(const char* message) {
   last_.summary.message = Message::format("%s", message);
   std::fill(effector_position_error_.begin(), effector_position_error_.end(), kNaN);
   std::fill(effector_rotation_error_.begin(), effector_rotation_error_.end(), kNaN);
-}
-
-void IKBody::process_modification(double /*delta*/) {
-  const gdx::Skeleton3D skel = skeleton();
-  if (!skel) {
-    set_invalid_result("IKBody: the parent is not a Skeleton3D.");
-    return;
-  }
-  run(skel);
 }
 
 bool IKBody::run(const gdx::Skeleton3D& skel) {

@@ -72,8 +72,6 @@ class IKBody : public IKModifier {
 
   // ---- engine callbacks
   bool validate_property(GDExtensionPropertyInfo& property);
-  void process_modification(double delta);
-  void notification(int32_t what);
   gdx::PackedStringArray get_configuration_warnings();
 
  private:
@@ -106,9 +104,9 @@ class IKBody : public IKModifier {
   // The joints' and effectors' identities and revisions in one number.
   uint64_t resource_revision() const;
   void rebuild(const gdx::Skeleton3D& skeleton);
-  bool run(const gdx::Skeleton3D& skeleton);
+  bool run(const gdx::Skeleton3D& skeleton) override;
   void report_runtime(const std::string& message);
-  void set_invalid_result(const char* message);
+  void set_invalid_result(const char* message) override;
   SolverKind resolved_solver() const;
 
   // Settings.

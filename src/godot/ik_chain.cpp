@@ -22,7 +22,9 @@ namespace {
 
 constexpr const char* kClass = "IKChain";
 constexpr IKModifier::Traits kTraits{kClass, IKChain::kDefaultMaxIterations, "[1e-06, 1] (skeleton units)",
-                                     /*solver_change_rebuilds=*/false, /*deterministic_is_cold_start=*/true};
+                                     /*solver_change_rebuilds=*/false, /*deterministic_is_cold_start=*/true,
+                                     "IKChain: the parent is not a Skeleton3D.",
+                                     "IKChain: the parent is not a Skeleton3D; make IKChain a child of a Skeleton3D."};
 
 // TipAxis (the engine-free mapping) takes IKChain.Axis values as they are.
 static_assert(int(TipAxis::kPlusX) == IKChain::AXIS_PLUS_X, "TipAxis follows IKChain.Axis");
@@ -335,12 +337,7 @@ gdx::Dictionary IKChain::get_last_result() const {
 }
 
 gdx::Dictionary IKChain::solve_now() {
-  const gdx::Skeleton3D skel = skeleton();
-  if (!skel) {
-    set_invalid_result("IKChain: the parent is not a Skeleton3D; make IKChain a child of a Skeleton3D.");
-  } else {
-    run(skel);
-  }
+  run_now();
   return get_last_result();
 }
 

@@ -106,8 +106,6 @@ class IKChain : public IKModifier {
 
   // ---- engine callbacks
   bool validate_property(GDExtensionPropertyInfo& property);
-  void process_modification(double delta);
-  void notification(int32_t what);
   gdx::PackedStringArray get_configuration_warnings();
 
  private:
@@ -152,7 +150,7 @@ class IKChain : public IKModifier {
   bool ancestry_changed(const gdx::Skeleton3D& skeleton) const;
   void record_ancestry(const gdx::Skeleton3D& skeleton);
   // The solve of one frame; false when nothing was written.
-  bool run(const gdx::Skeleton3D& skeleton);
+  bool run(const gdx::Skeleton3D& skeleton) override;
   bool assemble_goals(const gdx::Skeleton3D& skeleton);
   SolverKind resolved_solver() const;
 
@@ -160,7 +158,7 @@ class IKChain : public IKModifier {
   // spell, forgotten as soon as a frame goes well again.
   void report_runtime(const char* message);
   void clear_runtime_reports() { runtime_reported_.clear(); }
-  void set_invalid_result(const char* message);
+  void set_invalid_result(const char* message) override;
 
   // Settings.
   std::string tip_bone_;

@@ -64,21 +64,6 @@ void IKChain::set_invalid_result(const char* message) {
   solver_refused_ = false;
 }
 
-void IKChain::notification(int32_t what) {
-  if (what == gdx::gen::kNode_NOTIFICATION_ENTER_TREE) settings_changed();
-}
-
-void IKChain::process_modification(double /*delta*/) {
-  const gdx::Skeleton3D skel = skeleton();
-  if (!skel) {
-    // Configuration problems show as the warning triangle (like Godot's own modifiers), not as
-    // an error every frame.
-    set_invalid_result("IKChain: the parent is not a Skeleton3D.");
-    return;
-  }
-  run(skel);
-}
-
 bool IKChain::assemble_goals(const gdx::Skeleton3D& skel) {
   const gdx::Node self = gdx::Node::unchecked(owner_);
   gdx::Transform3D target_global = target_transform_;

@@ -162,6 +162,31 @@ void IKModifier::stop_listening_to(const gdx::Array& resources) {
 
 void IKModifier::resource_changed() { on_resource_changed(); }
 
+// ---------------------------------------------------------------- frames
+
+void IKModifier::process_modification(double /*delta*/) {
+  const gdx::Skeleton3D skel = skeleton();
+  if (!skel) {
+    // Configuration problems show as the warning triangle (like Godot's own modifiers), not as
+    // an error every frame.
+    set_invalid_result(traits_.no_skeleton_frame);
+    return;
+  }
+  run(skel);
+}
+
+void IKModifier::run_now() {
+  const gdx::Skeleton3D skel = skeleton();
+  if (!skel)
+    set_invalid_result(traits_.no_skeleton_fix);
+  else
+    run(skel);
+}
+
+void IKModifier::notification(int32_t what) {
+  if (what == gdx::gen::kNode_NOTIFICATION_ENTER_TREE) settings_changed();
+}
+
 void IKModifier::mark_dirty() {
   dirty_ = true;
   gdx::Node::unchecked(owner_).update_configuration_warnings();

@@ -27,6 +27,8 @@ class IKModifier {
     const char* tolerance_range;      // the clamp message's range, with its unit
     bool solver_change_rebuilds;      // IKBody: a solver that takes no trees stops the body
     bool deterministic_is_cold_start; // IKChain: deterministic starts from the rest pose
+    const char* no_skeleton_frame;    // the result of a frame without a skeleton parent
+    const char* no_skeleton_fix;      // the result of solve_now() without one: with the fix
   };
   static constexpr double kDefaultTolerance = 1e-4;             // skeleton units
   static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
@@ -52,6 +54,8 @@ class IKModifier {
   bool is_deterministic() const { return deterministic_; }
 
   // ---- engine callbacks
+  void process_modification(double delta);
+  void notification(int32_t what);
   void skeleton_changed();  // virtual _skeleton_changed and the skeleton's bone signals
   void resource_changed();  // `changed` of a resource in the node's arrays (bound as _resource_changed)
 
@@ -86,6 +90,11 @@ class IKModifier {
   // A resource of the node changed: IKChain rebuilds, IKBody rebuilds only when the change reshapes
   // the body (its effectors' targets and weights are read every frame).
   virtual void on_resource_changed() { mark_dirty(); }
+  // The node's solve of one frame (false: nothing written) and its result when nothing was done.
+  virtual bool run(const gdx::Skeleton3D& skeleton) = 0;
+  virtual void set_invalid_result(const char* message) = 0;
+  // solve_now(): one frame's solve, now.
+  void run_now();
   SolverKind choice_kind() const { return find_solver_choice(solver_)->kind; }
   bool solver_is_auto() const { return find_solver_choice(solver_)->is_auto; }
 
