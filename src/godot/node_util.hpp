@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
 #include <string_view>
 
@@ -11,6 +13,8 @@
 #include "core/result.hpp"
 
 namespace ikchain::godot {
+
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 inline gdx::String text(const std::string& s) { return gdx::String(std::string_view(s)); }
 
@@ -32,6 +36,14 @@ inline const char* reason_name(TerminationReason r) {
     case TerminationReason::kInvalidInput: return "invalid_input";
   }
   return "invalid_input";
+}
+
+// IKBody's name of an element of `effectors` in its messages: "effectors[2] ('LeftHand')".
+inline std::string effector_label(int index, const std::string& bone) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "effectors[%d]%s%s%s", index, bone.empty() ? "" : " ('", bone.c_str(),
+                bone.empty() ? "" : "')");
+  return buf;
 }
 
 }  // namespace ikchain::godot
