@@ -45,8 +45,7 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
   std::vector<int> effector_bones;
   const int64_t count = effectors_.size();
   for (int64_t i = 0; i < count; ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(effectors_.at(i), object);
+    const gdx::ObjectPtr object = object_at(effectors_, i);
     IKBodyEffector* e = IKBodyEffector::from_object(object);
     const std::string where = effector_label(int(i), e ? e->bone_name() : std::string());
     if (e == nullptr) {
@@ -176,8 +175,7 @@ void IKBody::configure(const gdx::Skeleton3D& skel, std::vector<Problem>& proble
   // Joints: each IKChainJoint names its bone.
   std::vector<const IKChainJoint*> joint_of(size_t(bone_count), nullptr);
   for (int64_t i = 0; i < joints_.size(); ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(joints_.at(i), object);
+    const gdx::ObjectPtr object = object_at(joints_, i);
     const IKChainJoint* j = IKChainJoint::from_object(object);
     const std::string where = "joints[" + std::to_string(i) + "]";
     if (j == nullptr) {
@@ -282,14 +280,12 @@ uint64_t IKBody::resource_revision() const {
     h = h * 1099511628211ull + uint64_t(reinterpret_cast<uintptr_t>(object)) + revision;
   };
   for (int64_t i = 0; i < joints_.size(); ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(joints_.at(i), object);
+    const gdx::ObjectPtr object = object_at(joints_, i);
     const IKChainJoint* j = IKChainJoint::from_object(object);
     mix(object, j ? j->revision() : 0);
   }
   for (int64_t i = 0; i < effectors_.size(); ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(effectors_.at(i), object);
+    const gdx::ObjectPtr object = object_at(effectors_, i);
     const IKBodyEffector* e = IKBodyEffector::from_object(object);
     mix(object, e ? e->revision() : 0);
   }

@@ -56,8 +56,7 @@ void IKChain::collect_chain_problems(const gdx::Skeleton3D& skel, std::vector<Pr
   // Joint settings by bone name; each resource must name a chain bone, once.
   std::vector<const IKChainJoint*> settings(bones.size(), nullptr);
   for (int64_t i = 0; i < joints_.size(); ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(joints_.at(i), object);
+    const gdx::ObjectPtr object = object_at(joints_, i);
     const IKChainJoint* joint = IKChainJoint::from_object(object);
     const std::string where = "IKChain: joints[" + std::to_string(i) + "]";
     if (joint == nullptr) {
@@ -144,8 +143,7 @@ void IKChain::resolve_goals(const SkeletonChain& chain, std::vector<ExtraGoal>* 
   const gdx::Node self = gdx::Node::unchecked(owner_);
   const SolverInfo* info = solver_is_auto() ? nullptr : &solver_info(choice_kind());
   for (int64_t i = 0; i < goals_.size(); ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(goals_.at(i), object);
+    const gdx::ObjectPtr object = object_at(goals_, i);
     const IKChainGoal* goal = IKChainGoal::from_object(object);
     const std::string where = "IKChain: goals[" + std::to_string(i) + "]";
     if (goal == nullptr) {

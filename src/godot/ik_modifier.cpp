@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "binding/classes.hpp"
+#include "node_util.hpp"
 #include "property_report.hpp"
 
 namespace ikchain::godot {
@@ -136,27 +137,21 @@ void IKModifier::bone_drop_down(GDExtensionPropertyInfo& property) const {
   gdx::String::assign_to(property.hint_string, names);
 }
 
-void IKModifier::listen_to(const gdx::Array& resources) {
-  if (g_names == nullptr) return;
-  const gdx::Callable callback(owner_, g_names->resource_changed);
-  for (int64_t i = 0; i < resources.size(); ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(resources.at(i), object);
-    if (object == nullptr) continue;
-    const gdx::Object resource(object);
-    if (!resource.is_connected(g_names->changed, callback)) resource.connect(g_names->changed, callback);
-  }
-}
+void IKModifier::listen_to(const gdx::Array& resources) { set_listening(resources, true); }
 
-void IKModifier::stop_listening_to(const gdx::Array& resources) {
+void IKModifier::stop_listening_to(const gdx::Array& resources) { set_listening(resources, false); }
+
+void IKModifier::set_listening(const gdx::Array& resources, bool on) {
   if (g_names == nullptr) return;
   const gdx::Callable callback(owner_, g_names->resource_changed);
   for (int64_t i = 0; i < resources.size(); ++i) {
-    gdx::ObjectPtr object = nullptr;
-    gdx::variant_to(resources.at(i), object);
+    const gdx::ObjectPtr object = object_at(resources, i);
     if (object == nullptr) continue;
     const gdx::Object resource(object);
-    if (resource.is_connected(g_names->changed, callback)) resource.disconnect(g_names->changed, callback);
+    // Once each: a resource may stand twice in an array, or in the arrays of several nodes.
+    const bool connected = resource.is_connected(g_names->changed, callback);
+    if (on && !connected) resource.connect(g_names->changed, callback);
+    if (!on && connected) resource.disconnect(g_names->changed, callback);
   }
 }
 

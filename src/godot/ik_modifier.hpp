@@ -85,6 +85,7 @@ class IKModifier {
   void listen_to(const gdx::Array& resources);
   // Disconnects them (an array the node no longer holds).
   void stop_listening_to(const gdx::Array& resources);
+  void set_listening(const gdx::Array& resources, bool on);
   void mark_dirty();        // rebuild before the next solve; the warnings may change
   void settings_changed();  // no rebuild, but the warnings may change
   // A resource of the node changed: IKChain rebuilds, IKBody rebuilds only when the change reshapes

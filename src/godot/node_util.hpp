@@ -16,6 +16,13 @@ namespace ikchain::godot {
 
 inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// The Object held by element i of an Array (null when it holds none): the nodes' resource arrays.
+inline gdx::ObjectPtr object_at(const gdx::Array& array, int64_t i) {
+  gdx::ObjectPtr object = nullptr;
+  gdx::variant_to(array.at(i), object);
+  return object;
+}
+
 inline gdx::String text(const std::string& s) { return gdx::String(std::string_view(s)); }
 
 inline bool finite(const glm::dmat4& m) {
