@@ -1,8 +1,9 @@
 // IKBody: a SkeletonModifier3D that solves every bone under root_bone that supports an effector as
 // one tree (the core's solve_tree: coupled, with strict priority levels), starting each frame from
 // the incoming (animated) pose, so an AnimationPlayer's output is corrected rather than replaced.
-// The skeleton <-> tree mapping lives in skeleton_tree.*; this class holds the properties, the
-// configuration warnings and the per-frame call.
+// The skeleton <-> tree mapping lives in skeleton_tree.*, what it shares with IKChain in
+// ik_modifier.*; this class is ik_body.cpp (properties, script API), ik_body_config.cpp (the
+// configuration pass, rebuild, warnings), ik_body_frame.cpp (per frame) and ik_body_humanoid.cpp.
 #pragma once
 
 #include <gdextension_interface.h>

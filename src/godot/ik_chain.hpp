@@ -1,7 +1,8 @@
 // IKChain: a SkeletonModifier3D that moves a chain of bones of its parent Skeleton3D toward goals
 // (the target's position, its rotation, an aim, extra goals on inner bones), with one of the
-// core's solvers (src/core). The skeleton <-> chain mapping lives in skeleton_chain.*; this class
-// holds the properties, the configuration warnings and the per-frame call.
+// core's solvers (src/core). The skeleton <-> chain mapping lives in skeleton_chain.*, what it shares
+// with IKBody in ik_modifier.*; this class is ik_chain.cpp (properties, script API),
+// ik_chain_config.cpp (the configuration pass, rebuild, warnings) and ik_chain_frame.cpp (per frame).
 //
 // Chain convention (like Godot's TwoBoneIK3D): the joints are the bones from root_bone down to
 // the PARENT of tip_bone and the effector is tip_bone's origin; with extend_tip_bone, tip_bone is
