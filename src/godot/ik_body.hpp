@@ -1,8 +1,9 @@
 // IKBody: a SkeletonModifier3D that solves every bone under root_bone that supports an effector as
 // one tree (the core's solve_tree: coupled, with strict priority levels), starting each frame from
 // the incoming (animated) pose, so an AnimationPlayer's output is corrected rather than replaced.
-// The skeleton <-> tree mapping lives in skeleton_tree.*; this class holds the properties, the
-// configuration warnings and the per-frame call.
+// The skeleton <-> tree mapping lives in skeleton_tree.*, what it shares with IKChain in
+// ik_modifier.*; this class is ik_body.cpp (properties, script API), ik_body_config.cpp (the
+// configuration pass, rebuild, warnings), ik_body_frame.cpp (per frame) and ik_body_humanoid.cpp.
 #pragma once
 
 #include <gdextension_interface.h>
@@ -18,20 +19,18 @@
 #include "binding/class_db.hpp"
 #include "core/ikchain.hpp"
 #include "core/tree_solve.hpp"
+#include "ik_modifier.hpp"
 #include "skeleton_tree.hpp"
 
 namespace ikchain::godot {
 
 class IKBodyEffector;
 
-class IKBody {
+class IKBody : public IKModifier {
  public:
-  // The values are IKChain.Solver's (the core's SolverKind, then Auto): saved in scenes, never
-  // renumbered. Only the solvers whose solver-table row says `trees` are offered.
-  static constexpr int64_t kSolverAuto = 6;
+  // The Solver values are IKChain.Solver's (solver_choice.hpp): saved in scenes, never renumbered.
+  // Only the solvers whose core solver-table row says `trees` are offered.
   static constexpr int64_t kDefaultMaxIterations = 100;
-  static constexpr double kDefaultTolerance = 1e-4;             // m
-  static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
   // The share of the distance to the posture (the start pose) one iteration closes in the freedom
   // the effectors leave (TreeProblem::posture_stiffness): the redundant joints stay near the
   // start instead of wandering.
@@ -45,24 +44,12 @@ class IKBody {
   explicit IKBody(gdx::ObjectPtr owner);
 
   // ---- properties
-  void set_root_bone(const gdx::String& name);
-  gdx::String get_root_bone() const;
   void set_floating_root(bool on);
   bool is_floating_root() const { return floating_root_; }
   void set_effectors(const gdx::Array& effectors);
   gdx::Array get_effectors() const { return effectors_; }
   void set_joints(const gdx::Array& joints);
   gdx::Array get_joints() const { return joints_; }
-  void set_solver(int64_t solver);
-  int64_t get_solver() const { return solver_; }
-  void set_max_iterations(int64_t n);
-  int64_t get_max_iterations() const { return max_iterations_; }
-  void set_tolerance(double meters);
-  double get_tolerance() const { return tolerance_; }
-  void set_orientation_tolerance(double radians);
-  double get_orientation_tolerance() const { return orientation_tolerance_; }
-  void set_deterministic(bool on);
-  bool is_deterministic() const { return deterministic_; }
 
   // ---- script API
   gdx::Dictionary get_last_result() const;
@@ -86,10 +73,7 @@ class IKBody {
 
   // ---- engine callbacks
   bool validate_property(GDExtensionPropertyInfo& property);
-  void process_modification(double delta);
-  void notification(int32_t what);
-  gdx::PackedStringArray get_configuration_warnings() const;
-  void skeleton_changed();
+  gdx::PackedStringArray get_configuration_warnings();
 
  private:
   struct Problem {
@@ -116,36 +100,31 @@ class IKBody {
   // and, when asked, the tree description and the effector slots (skeleton bone indices).
   void configure(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems, SkeletonTreeDesc* desc,
                  std::vector<Slot>* slots, std::vector<gdx::Variant>* held) const;
-  void mark_dirty();
-  gdx::Skeleton3D skeleton() const;
-  void watch_skeleton(const gdx::Skeleton3D& skeleton);
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
+  void on_resource_changed() override { resources_touched_ = true; }
+  // The joints' and effectors' identities and revisions in one number.
+  uint64_t resource_revision() const;
   void rebuild(const gdx::Skeleton3D& skeleton);
-  bool run(const gdx::Skeleton3D& skeleton);
+  bool run(const gdx::Skeleton3D& skeleton) override;
   void report_runtime(const std::string& message);
-  void set_invalid_result(const char* message);
+  void set_invalid_result(const char* message) override;
   SolverKind resolved_solver() const;
 
-  gdx::ObjectPtr owner_;
-
   // Settings.
-  std::string root_bone_;
   bool floating_root_ = false;
   gdx::Array effectors_;
   gdx::Array joints_;
-  int64_t solver_ = kSolverAuto;
-  int64_t max_iterations_ = kDefaultMaxIterations;
-  double tolerance_ = kDefaultTolerance;
-  double orientation_tolerance_ = kDefaultOrientationTolerance;
-  bool deterministic_ = false;
 
   // Built lazily (rebuild()); the per-frame path only reads these.
-  bool dirty_ = true;
   bool body_ok_ = false;
   uint64_t built_skeleton_id_ = 0;
   int64_t built_skeleton_version_ = -1;
-  uint64_t built_settings_generation_ = 0;
+  // The joints' and effectors' revisions as built; checked only after one of them emitted `changed`.
+  uint64_t built_revision_ = 0;
+  mutable bool resources_touched_ = false;
+  int64_t built_joints_size_ = 0;
   std::vector<Problem> body_problems_;
+  std::string scale_note_;  // the built body's non-uniform scale warning (empty: none)
   SkeletonTree mapping_;
   int base_bone_ = -1;
   std::vector<Slot> slots_;
@@ -162,7 +141,6 @@ class IKBody {
   std::vector<char> goal_rotation_;  // per goal: the orientation goal (else position)
   std::vector<int> look_goals_;      // per frame: the goals whose look is spread (capacity: slots)
   TreeWorkspace workspace_;
-  SolverOptions options_;
   bool have_last_ = false;
 
   std::vector<std::string> runtime_reported_;

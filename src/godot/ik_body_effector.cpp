@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include "binding/log.hpp"
-#include "ik_chain_joint.hpp"
 #include "property_report.hpp"
 
 namespace ikchain::godot {
@@ -86,7 +85,7 @@ IKBodyEffector* IKBodyEffector::from_object(gdx::ObjectPtr object) {
 void IKBodyEffector::changed(bool structural) {
   // Only what reshapes the body (the bone, enabled, the pole) makes the IKBody rebuild; targets,
   // weights, priority and influence are read every frame (keyable).
-  if (structural) IKChainJoint::bump_generation();
+  if (structural) ++revision_;
   gdx::Resource::unchecked(owner_).emit_changed();
 }
 

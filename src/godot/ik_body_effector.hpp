@@ -56,6 +56,9 @@ class IKBodyEffector {
   gdx::Array get_look_shares() const { return look_shares_; }
 
   gdx::ObjectPtr owner() const { return owner_; }
+  // Bumped by the changes that reshape the body (bone, enabled, pole, look); every change emits
+  // `changed`, and the IKBody rebuilds only when this moved.
+  uint64_t revision() const { return revision_; }
 
  private:
   void changed(bool structural);
@@ -74,6 +77,7 @@ class IKBodyEffector {
   bool look_at_ = false;
   gdx::Vector3 look_axis_{0.0f, 0.0f, 1.0f};  // +Z: a Godot humanoid's forward
   gdx::Array look_shares_;
+  uint64_t revision_ = 0;
 };
 
 }  // namespace ikchain::godot

@@ -1,7 +1,8 @@
 // IKChain: a SkeletonModifier3D that moves a chain of bones of its parent Skeleton3D toward goals
 // (the target's position, its rotation, an aim, extra goals on inner bones), with one of the
-// core's solvers (src/core). The skeleton <-> chain mapping lives in skeleton_chain.*; this class
-// holds the properties, the configuration warnings and the per-frame call.
+// core's solvers (src/core). The skeleton <-> chain mapping lives in skeleton_chain.*, what it shares
+// with IKBody in ik_modifier.*; this class is ik_chain.cpp (properties, script API),
+// ik_chain_config.cpp (the configuration pass, rebuild, warnings) and ik_chain_frame.cpp (per frame).
 //
 // Chain convention (like Godot's TwoBoneIK3D): the joints are the bones from root_bone down to
 // the PARENT of tip_bone and the effector is tip_bone's origin; with extend_tip_bone, tip_bone is
@@ -21,23 +22,13 @@
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
 #include "core/ikchain.hpp"
+#include "ik_modifier.hpp"
 #include "skeleton_chain.hpp"
 
 namespace ikchain::godot {
 
-class IKChain {
+class IKChain : public IKModifier {
  public:
-  // Values are saved in scenes: never renumber. The names, hint string and core mapping come
-  // from one table (kSolverTable in ik_chain.cpp).
-  enum Solver : int64_t {
-    SOLVER_TWO_BONE = 0,
-    SOLVER_CCD = 1,
-    SOLVER_JACOBIAN = 2,
-    SOLVER_DLS = 3,
-    SOLVER_BFGS = 4,
-    SOLVER_FABRIK = 5,
-    SOLVER_AUTO = 6,
-  };
   enum GoalMode : int64_t { GOAL_MODE_REACH = 0, GOAL_MODE_AIM = 1 };
   enum Axis : int64_t {
     AXIS_PLUS_X = 0,
@@ -47,9 +38,8 @@ class IKChain {
     AXIS_PLUS_Z = 4,
     AXIS_MINUS_Z = 5,
   };
+  // The Solver values are the table in solver_choice.hpp (saved in scenes: never renumbered).
   static constexpr int64_t kDefaultMaxIterations = 64;
-  static constexpr double kDefaultTolerance = 1e-4;             // skeleton units
-  static constexpr double kDefaultOrientationTolerance = 1e-3;  // rad
 
   // Class-wide StringNames: created at SCENE init, destroyed at SCENE deinit.
   static void register_class(gdx::ClassRecord& record);
@@ -58,8 +48,6 @@ class IKChain {
   explicit IKChain(gdx::ObjectPtr owner);
 
   // ---- properties
-  void set_root_bone(const gdx::String& name);
-  gdx::String get_root_bone() const;
   void set_tip_bone(const gdx::String& name);
   gdx::String get_tip_bone() const;
   void set_extend_tip_bone(bool on);
@@ -74,8 +62,6 @@ class IKChain {
   bool is_using_target_transform() const { return use_target_transform_; }
   void set_target_transform(const gdx::Transform3D& transform);
   gdx::Transform3D get_target_transform() const { return target_transform_; }
-  void set_solver(int64_t solver);
-  int64_t get_solver() const { return solver_; }
   void set_goal_mode(int64_t mode);
   int64_t get_goal_mode() const { return goal_mode_; }
   void set_aim_axis(const gdx::Vector3& axis);
@@ -90,12 +76,6 @@ class IKChain {
   gdx::Array get_joints() const { return joints_; }
   void set_goals(const gdx::Array& goals);
   gdx::Array get_goals() const { return goals_; }
-  void set_max_iterations(int64_t n);
-  int64_t get_max_iterations() const { return max_iterations_; }
-  void set_tolerance(double units);
-  double get_tolerance() const { return tolerance_; }
-  void set_orientation_tolerance(double radians);
-  double get_orientation_tolerance() const { return orientation_tolerance_; }
   void set_soft_reach(double units);
   double get_soft_reach() const { return soft_reach_; }
   void set_time_budget_usec(double usec);
@@ -104,8 +84,6 @@ class IKChain {
   int64_t get_max_restarts() const { return max_restarts_; }
   void set_restart_seed(int64_t seed);
   int64_t get_restart_seed() const { return restart_seed_; }
-  void set_deterministic(bool on);
-  bool is_deterministic() const { return deterministic_; }
 
   // ---- script API
   // The last solve: see get_last_result() in the class reference for the keys.
@@ -129,10 +107,7 @@ class IKChain {
 
   // ---- engine callbacks
   bool validate_property(GDExtensionPropertyInfo& property);
-  void process_modification(double delta);
-  void notification(int32_t what);
-  gdx::PackedStringArray get_configuration_warnings() const;
-  void skeleton_changed();  // virtual _skeleton_changed and the skeleton's bone signals
+  gdx::PackedStringArray get_configuration_warnings();
 
  private:
   struct Problem {
@@ -148,9 +123,6 @@ class IKChain {
     gdx::NodePath target;
   };
 
-  void mark_dirty();
-  void settings_changed();  // a setting that needs no rebuild but may change the warnings
-  gdx::Skeleton3D skeleton() const;
   // Bones, joint settings and the solver's fit to the goals; one entry per problem, with its fix.
   void collect_chain_problems(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems,
                               SkeletonChainDesc* desc) const;
@@ -163,13 +135,23 @@ class IKChain {
   // is left out, or a goal without a target node is skipped per frame).
   void resolve_goals(const SkeletonChain& chain, std::vector<ExtraGoal>* goals, std::vector<Problem>& problems,
                      std::vector<Problem>& unmovable) const;
+  // What the one configuration pass (configure()) makes of the settings; the rebuild builds from
+  // it, the warnings list it.
+  struct Config {
+    std::vector<Problem> fatal;  // the chain cannot run (the rebuild stops on the first)
+    std::vector<Problem> notes;  // shown; the chain runs without what they spoil
+    SkeletonChainDesc desc;
+    std::vector<ExtraGoal> goals;
+  };
+  // The one configuration pass, for the rebuild (build: the chain is built from it) and the
+  // warnings (the chain as built: they rebuild it first when stale, never build one of their own).
+  void configure(const gdx::Skeleton3D& skeleton, bool build, Config& config);
   void rebuild(const gdx::Skeleton3D& skeleton);
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
   bool ancestry_changed(const gdx::Skeleton3D& skeleton) const;
   void record_ancestry(const gdx::Skeleton3D& skeleton);
-  void watch_skeleton(const gdx::Skeleton3D& skeleton);
   // The solve of one frame; false when nothing was written.
-  bool run(const gdx::Skeleton3D& skeleton);
+  bool run(const gdx::Skeleton3D& skeleton) override;
   bool assemble_goals(const gdx::Skeleton3D& skeleton);
   SolverKind resolved_solver() const;
 
@@ -177,12 +159,9 @@ class IKChain {
   // spell, forgotten as soon as a frame goes well again.
   void report_runtime(const char* message);
   void clear_runtime_reports() { runtime_reported_.clear(); }
-  void set_invalid_result(const char* message);
-
-  gdx::ObjectPtr owner_;
+  void set_invalid_result(const char* message) override;
 
   // Settings.
-  std::string root_bone_;
   std::string tip_bone_;
   bool extend_tip_bone_ = false;
   int64_t tip_extension_axis_ = AXIS_PLUS_Y;
@@ -190,7 +169,6 @@ class IKChain {
   gdx::NodePath target_;
   bool use_target_transform_ = false;
   gdx::Transform3D target_transform_;
-  int64_t solver_ = SOLVER_AUTO;
   int64_t goal_mode_ = GOAL_MODE_REACH;
   gdx::Vector3 aim_axis_{0, 1, 0};
   bool use_target_rotation_ = false;
@@ -198,21 +176,18 @@ class IKChain {
   gdx::NodePath pole_target_;
   gdx::Array joints_;
   gdx::Array goals_;
-  int64_t max_iterations_ = kDefaultMaxIterations;
-  double tolerance_ = kDefaultTolerance;
-  double orientation_tolerance_ = kDefaultOrientationTolerance;
   double time_budget_usec_ = 0.0;
   double soft_reach_ = 0.0;  // skeleton units; 0 = off
   int64_t max_restarts_ = 0;
   int64_t restart_seed_ = 1;
-  bool deterministic_ = false;
 
   // Built lazily from the skeleton (rebuild()); the per-frame path only reads these.
-  bool dirty_ = true;
   bool chain_ok_ = false;
+  bool mapping_built_ = false;  // mapping_ holds the chain of the last rebuild's settings
   uint64_t built_skeleton_id_ = 0;
   int64_t built_skeleton_version_ = -1;
-  uint64_t built_settings_generation_ = 0;
+  // The arrays' sizes as built: an element appended in place (ik.joints.append(j)) calls no setter.
+  int64_t built_joints_size_ = 0, built_goals_size_ = 0;
   std::vector<Problem> chain_problems_;
   SkeletonChain mapping_;  // skeleton <-> chain
   int base_bone_ = -1;     // root_bone's parent, -1 = skeleton space
@@ -227,7 +202,6 @@ class IKChain {
   std::vector<BonePose> bone_poses_;
   std::vector<glm::dquat> old_rotations_, new_rotations_, blended_rotations_;
   Workspace workspace_;
-  SolverOptions options_;
   Eigen::VectorXd params_;
   // Skeleton3D restores the animated pose before modifiers run, so the pose read each frame is the
   // animation's: a warm start continues from our own last solution instead (frame continuity).

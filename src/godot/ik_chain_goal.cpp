@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ik_chain_joint.hpp"
 #include "property_report.hpp"
 
 namespace ikchain::godot {
@@ -48,7 +47,7 @@ const IKChainGoal* IKChainGoal::from_object(gdx::ObjectPtr object) {
 }
 
 void IKChainGoal::changed() {
-  IKChainJoint::bump_generation();
+  // The IKChains that hold this goal listen to `changed` and rebuild (goals are resolved there).
   gdx::Resource::unchecked(owner_).emit_changed();
 }
 

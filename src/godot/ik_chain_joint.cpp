@@ -1,7 +1,6 @@
 #include "ik_chain_joint.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 
 #include "property_report.hpp"
@@ -11,7 +10,6 @@ namespace ikchain::godot {
 namespace hint = gdx::gen::PropertyHint;
 
 namespace {
-std::atomic<uint64_t> g_generation{1};
 constexpr double kPi = 3.14159265358979323846;
 constexpr const char* kClass = "IKChainJoint";
 
@@ -31,9 +29,6 @@ double clamp_angle(const char* property, const char* range, double radians, doub
   return used;
 }
 }  // namespace
-
-uint64_t IKChainJoint::generation() { return g_generation.load(std::memory_order_relaxed); }
-void IKChainJoint::bump_generation() { g_generation.fetch_add(1, std::memory_order_relaxed); }
 
 void IKChainJoint::register_class(gdx::ClassRecord& record) {
   gdx::ClassBuilder<IKChainJoint> b(record);
@@ -100,7 +95,9 @@ const IKChainJoint* IKChainJoint::from_object(gdx::ObjectPtr object) {
 }
 
 void IKChainJoint::changed() {
-  bump_generation();
+  // Only the nodes that hold this joint listen (IKModifier::listen_to): editing it rebuilds them,
+  // not every IKChain of the scene.
+  ++revision_;
   gdx::Resource::unchecked(owner_).emit_changed();
 }
 

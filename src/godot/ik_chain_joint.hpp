@@ -19,10 +19,6 @@ class IKChainJoint {
   static void register_class(gdx::ClassRecord& record);
   // The C++ instance behind a Variant of an Array (null when it is not an IKChainJoint).
   static const IKChainJoint* from_object(gdx::ObjectPtr object);
-  // Bumped by every setter of every IKChainJoint / IKChainGoal: an IKChain compares it each frame
-  // (one integer) to know that settings inside its resources changed.
-  static uint64_t generation();
-  static void bump_generation();
 
   explicit IKChainJoint(gdx::ObjectPtr owner) : owner_(owner) {}
 
@@ -57,6 +53,9 @@ class IKChainJoint {
   // The settings as the skeleton mapping takes them (the properties are stored there, so the
   // defaults and the mapping exist once).
   const JointSettings& settings() const { return settings_; }
+  // Bumped by every setter (each also emits `changed`, which the owning nodes listen to): an IKBody
+  // compares it to tell a change that reshapes it from one that does not.
+  uint64_t revision() const { return revision_; }
 
  private:
   void changed();
@@ -64,6 +63,7 @@ class IKChainJoint {
   gdx::ObjectPtr owner_;
   std::string bone_name_;
   JointSettings settings_;
+  uint64_t revision_ = 0;
 };
 
 }  // namespace ikchain::godot

@@ -14,6 +14,7 @@
 #include "ik_chain.hpp"
 #include "ik_chain_goal.hpp"
 #include "ik_chain_joint.hpp"
+#include "ik_modifier.hpp"
 
 namespace {
 
@@ -48,6 +49,7 @@ void initialize(void*, GDExtensionInitializationLevel level) {
     std::fprintf(stderr, "IKChain: this engine lacks methods IKChain needs; IKChain is not registered.\n");
     return;
   }
+  ikchain::godot::IKModifier::register_names();
   g_joint_record = new_record("IKChainJoint", "Resource");
   ikchain::godot::IKChainJoint::register_class(*g_joint_record);
   g_goal_record = new_record("IKChainGoal", "Resource");
@@ -69,6 +71,7 @@ void deinitialize(void*, GDExtensionInitializationLevel level) {
   ikchain::godot::IKChain::unregister_class();
   unregister(g_goal_record);
   unregister(g_joint_record);
+  ikchain::godot::IKModifier::unregister_names();
 }
 
 }  // namespace

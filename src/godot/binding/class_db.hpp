@@ -296,6 +296,17 @@ class ClassBuilder {
               ReturnInfo ret = {}) {
     add_method<R, A...>(name, std::make_unique<detail::MethodRecord<C, R, A...>>(fn), arg_names, true, ret);
   }
+  // A member C inherits from a base class (what several of our classes share is bound once there).
+  template <class B, class R, class... A, std::enable_if_t<std::is_base_of_v<B, C> && !std::is_same_v<B, C>, int> = 0>
+  void method(const char* name, R (B::*fn)(A...), std::initializer_list<const char*> arg_names = {},
+              ReturnInfo ret = {}) {
+    method(name, static_cast<R (C::*)(A...)>(fn), arg_names, ret);
+  }
+  template <class B, class R, class... A, std::enable_if_t<std::is_base_of_v<B, C> && !std::is_same_v<B, C>, int> = 0>
+  void method(const char* name, R (B::*fn)(A...) const, std::initializer_list<const char*> arg_names = {},
+              ReturnInfo ret = {}) {
+    method(name, static_cast<R (C::*)(A...) const>(fn), arg_names, ret);
+  }
 
  private:
   template <class R, class... A>
@@ -386,6 +397,10 @@ class ClassBuilder {
   template <class R, class... A>
   void virtual_method(const char* name, uint32_t hash, R (C::*fn)(A...) const) {
     record_.virtuals.push_back(std::make_unique<detail::VirtualMethod<C, true, R, A...>>(name, hash, fn));
+  }
+  template <class B, class R, class... A, std::enable_if_t<std::is_base_of_v<B, C> && !std::is_same_v<B, C>, int> = 0>
+  void virtual_method(const char* name, uint32_t hash, R (B::*fn)(A...)) {
+    virtual_method(name, hash, static_cast<R (C::*)(A...)>(fn));
   }
 
  private:
