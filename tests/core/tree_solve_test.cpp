@@ -2,6 +2,8 @@
 // root, the posture task, limits at every level, no allocation, invalid problems by name.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <random>
@@ -224,6 +226,115 @@ TEST(TreeSolve, PostureMovesOnFromAStartThatAlreadyMeetsTheGoals) {
     EXPECT_LT(q.norm(), 0.5 * start.norm()) << "trial " << trial << ": the posture got nearer: " << start.norm()
                                             << " -> " << q.norm();
   }
+}
+
+// IKBody's tracking frame: feet and hips (position and rotation, the rotations weighted by their
+// Tree::lever) at level 1, hands at level 2, the rest pose as a posture at stiffness 0.1,
+// posture_iterations 4, each frame from the last one's pose while the targets move smoothly. Every
+// frame meets every goal within a few iterations: the goals are polished without the posture
+// (with it, the polish converged linearly for as long as the posture moved: 14-19 iterations a
+// frame in Godot, with the hips' rotation weighted by its 0 m reach from the root).
+TEST(TreeSolve, TrackingFramesWithLevelsAndAPostureTakeAFewIterations) {
+  using H = Humanoid;
+  const Tree t = test::make_humanoid(true);
+  EXPECT_NEAR(t.lever(H::kHipsEffector), t.reach_from_root(H::kLHand), 1e-12);  // the farthest effector
+  EXPECT_DOUBLE_EQ(t.lever(H::kLHand), t.reach_from_root(H::kLHand));          // a leaf: its own reach
+  TreeWorkspace ws(t, 12);
+  SolverOptions o;
+  o.position_tolerance = 1e-4;
+  o.orientation_tolerance = 1e-3;
+  o.time_cap_usec = 0.0;  // iteration counts, not the machine's load
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  const std::vector<double> stiffness(size_t(t.dof_count()), 0.1);
+  Eigen::VectorXd q = rest;
+  std::vector<int> iterations;
+  for (int frame = 0; frame < 120; ++frame) {
+    // The target pose: hips down 5 cm and swaying, arms swinging, legs bending with the hips.
+    const double w = 2.0 * 3.14159265358979 * frame / 60.0;
+    Eigen::VectorXd target = rest;
+    target[1] = -0.05 + 0.02 * std::sin(w);
+    target[t.dof_offset(H::kLShoulder) + 2] = 0.4 + 0.3 * std::sin(w);
+    target[t.dof_offset(H::kRShoulder) + 2] = -0.4 + 0.3 * std::cos(w);
+    target[t.dof_offset(H::kLElbow)] = 0.5 + 0.3 * std::sin(w);
+    target[t.dof_offset(H::kRElbow)] = 0.5 + 0.3 * std::cos(w);
+    target[t.dof_offset(H::kLKnee)] = 0.4;
+    target[t.dof_offset(H::kRKnee)] = 0.4;
+    project_tree_to_limits(t, target.data());
+    tree_forward_kinematics(t, target.data(), ws);
+    std::vector<TreeGoal> goals;
+    for (int e : {H::kHipsEffector, H::kLFoot, H::kRFoot}) {
+      const double weight = (e == H::kHipsEffector ? 0.1 : 1.0);
+      goals.push_back({Goal::position(tree_effector_position(t, ws, e), e, weight), 1});
+      goals.push_back({Goal::orientation(tree_effector_orientation(t, ws, e), e, weight * t.lever(e) * t.lever(e)), 1});
+    }
+    for (int e : {H::kLHand, H::kRHand}) goals.push_back({Goal::position(tree_effector_position(t, ws, e), e), 2});
+    TreeProblem p;
+    p.goals = goals;
+    p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+    p.posture_stiffness = Span<const double>(stiffness.data(), static_cast<int>(stiffness.size()));
+    p.posture_iterations = 4;
+    const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    ASSERT_TRUE(r.usable());
+    ASSERT_EQ(r.summary.reason, TerminationReason::kConverged) << "frame " << frame;
+    for (int g = 0; g < p.goals.size; ++g)
+      EXPECT_LE(r.goal_error[g], p.goals[g].goal.kind == GoalKind::kPosition ? o.position_tolerance : o.orientation_tolerance)
+          << "frame " << frame << " goal " << g;
+    if (frame > 0) iterations.push_back(r.summary.iterations);  // frame 0 starts from the rest pose
+  }
+  std::sort(iterations.begin(), iterations.end());
+  const int median = iterations[iterations.size() / 2];
+  std::printf("  tracking frames: median %d iterations, worst %d\n", median, iterations.back());
+  EXPECT_LE(median, 6);  // at most the polish and posture_iterations + 1 posture steps
+  EXPECT_LE(iterations.back(), 12);
+}
+
+// A cold start with straight knees (each on its hinge's 0 bound) and the hips 8 cm lower: the feet
+// must bend the knees. The stall and creep rules ask the first unmet level the step moved: the
+// hands' error swinging up and down at level 2 while the feet crept at level 1 counted as progress
+// and hid the creep until max_iterations (IKBody `deterministic` frames: 50 of 480 failed so).
+TEST(TreeSolve, ACreepAtLevelOneIsSeenWhileALowerLevelSwings) {
+  using H = Humanoid;
+  const Tree t = test::make_humanoid(true);
+  TreeWorkspace ws(t, 12);
+  SolverOptions o;
+  o.position_tolerance = 1e-4;
+  o.orientation_tolerance = 1e-3;
+  o.time_cap_usec = 0.0;
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
+  const std::vector<double> stiffness(size_t(t.dof_count()), 0.1);
+  int converged = 0;
+  const int trials = 24;
+  for (int trial = 0; trial < trials; ++trial) {
+    const double w = 2.0 * 3.14159265358979 * trial / trials;
+    tree_forward_kinematics(t, rest.data(), ws);
+    std::vector<TreeGoal> goals;
+    for (int e : {H::kLFoot, H::kRFoot}) {
+      goals.push_back({Goal::position(tree_effector_position(t, ws, e), e), 1});
+      goals.push_back({Goal::orientation(tree_effector_orientation(t, ws, e), e, t.lever(e) * t.lever(e)), 1});
+    }
+    const glm::dvec3 hips = tree_effector_position(t, ws, H::kHipsEffector);
+    const glm::dquat turn = glm::angleAxis(0.09 * std::sin(w), glm::dvec3(0, 1, 0));
+    goals.push_back({Goal::position(hips + glm::dvec3(0.02 * std::sin(w), -0.08, 0.02 * std::cos(w)), H::kHipsEffector, 0.1), 1});
+    goals.push_back({Goal::orientation(turn, H::kHipsEffector, 0.1 * t.lever(H::kHipsEffector) * t.lever(H::kHipsEffector)), 1});
+    for (int e : {H::kLHand, H::kRHand}) {
+      const glm::dvec3 hand = tree_effector_position(t, ws, e);
+      goals.push_back({Goal::position(glm::dvec3(0.6 * hand.x, hand.y - 0.3 + 0.08 * std::sin(w), 0.25), e), 2});
+    }
+    TreeProblem p;
+    p.goals = goals;
+    p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+    p.posture_stiffness = Span<const double>(stiffness.data(), static_cast<int>(stiffness.size()));
+    p.posture_iterations = 4;
+    Eigen::VectorXd q = rest;
+    const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    ASSERT_TRUE(r.usable());
+    if (r.summary.reason == TerminationReason::kConverged) ++converged;
+    else
+      std::printf("  trial %d: %s after %d iterations, %d escapes, errors %g m %g rad\n", trial,
+                  to_string(r.summary.reason), r.summary.iterations, r.summary.escapes,
+                  r.summary.final_position_error, r.summary.final_orientation_error);
+  }
+  EXPECT_EQ(converged, trials);
 }
 
 // posture_iterations: once every goal is met, a tracking solve stops after that many more

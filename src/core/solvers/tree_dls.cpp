@@ -310,7 +310,9 @@ class HierarchicalStep {
   // `served`: how many levels (in order) the step serves; the posture only when it is all of them.
   bool compute(const double* params, double mu, double posture_gain, int served) {
     served_ = served;
-    const bool posture = served == levels_.count && posture_gain > 0.0 && !problem_.posture.empty();
+    // Factored for the posture whenever it serves every level, even for a step without it (a
+    // polishing step, posture_gain 0): the chord step after it can then take the posture step.
+    const bool posture = served == levels_.count && !problem_.posture.empty();
     for (int pass = 0; pass <= kLimitPasses; ++pass) {
       auto M = ws_.row_square.topLeftCorner(rows_, rows_);
       gram(M);  // of J as the limits leave it (correct() and chord() reuse it: the same J)
