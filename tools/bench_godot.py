@@ -349,7 +349,8 @@ def body_verdicts(body):
                     "met": r["knee_elbow_flips"] == 0})
         out.append({"target": f"replay {r['clip']} warm: pops on <= 0.1 % of frames", "pops": r["pop_frames"],
                     "pop_share": r["pop_share"], "worst_m": r["worst_excess_move_m"],
-                    "worst_frame": r["worst_excess_frame"], "met": r["pop_share"] <= 0.001})
+                    "worst_frame": r["worst_excess_frame"], "recording_cuts": r.get("recording_cuts", 0),
+                    "met": r["pop_share"] <= 0.001})
     for r in body.get("replay", []):
         if "bit_identical_two_processes" in r:
             out.append({"target": f"replay {r['clip']}: bit-identical with deterministic on (two processes)",
@@ -396,7 +397,8 @@ def body_table(body):
                      f"{r['worst_position_error_m']['p50'] * 1000:.3g}/{r['worst_position_error_m']['p99'] * 1000:.3g}/"
                      f"{r['worst_position_error_m']['max'] * 1000:.3g} mm, median it {r['median_iterations']}, flips "
                      f"{r['knee_elbow_flips']}, pops {r['pop_frames']}/{r['frame_pairs']} (worst "
-                     f"{r['worst_excess_move_m'] * 100:.1f} cm at frame {r['worst_excess_frame']})"
+                     f"{r['worst_excess_move_m'] * 100:.1f} cm at frame {r['worst_excess_frame']}; "
+                     f"{r.get('recording_cuts', 0)} cut(s) in the recording not scored)"
                      + (f", bit-identical in two processes: {r['bit_identical_two_processes']}"
                         if "bit_identical_two_processes" in r else ""))
     for v in body["verdicts"]:
