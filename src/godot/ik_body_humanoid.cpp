@@ -18,12 +18,21 @@ namespace {
 
 constexpr double kDeg = so3::kPi / 180.0;
 
-// The bones setup_humanoid() uses: Godot's SkeletonProfileHumanoid names.
-constexpr const char* kHumanoidBones[] = {
-    "Hips",         "Spine",        "Chest",        "UpperChest",    "Neck",          "Head",
-    "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",     "RightUpperLeg", "RightLowerLeg", "RightFoot",
-    "LeftShoulder", "LeftUpperArm", "LeftLowerArm", "LeftHand",      "RightShoulder", "RightUpperArm",
-    "RightLowerArm", "RightHand"};
+// The bones setup_humanoid() needs: those SkeletonProfileHumanoid marks required (is_required()),
+// which a retargeted import always has.
+constexpr const char* kRequiredBones[] = {
+    "Hips",         "Spine",         "Head",          "LeftUpperLeg",  "LeftLowerLeg",  "LeftFoot",
+    "RightUpperLeg", "RightLowerLeg", "RightFoot",    "LeftShoulder",  "LeftUpperArm",  "LeftLowerArm",
+    "LeftHand",     "RightShoulder", "RightUpperArm", "RightLowerArm", "RightHand"};
+// The head's look spread (IKBodyEffector.look_shares) from the head down the spine; the profile's
+// optional bones (Neck, UpperChest, Chest: a rig with fewer spine bones leaves them out) get a cone
+// and a share when the skeleton has them, and the shares of those present are scaled to sum to 1.
+struct LookShare {
+  const char* bone;
+  double share;
+};
+constexpr LookShare kLookShares[] = {
+    {"Head", 0.35}, {"Neck", 0.25}, {"UpperChest", 0.15}, {"Chest", 0.15}, {"Spine", 0.1}};
 
 // A new instance of one of our resource classes, held by the returned Variant.
 gdx::Variant new_resource(const char* class_name, gdx::ObjectPtr& object) {
@@ -53,17 +62,30 @@ bool IKBody::setup_humanoid() {
     return false;
   }
   std::string missing;
-  for (const char* bone : kHumanoidBones)
+  for (const char* bone : kRequiredBones)
     if (skel.find_bone(gdx::String(bone)) < 0) missing += std::string(missing.empty() ? "" : ", ") + bone;
   if (!missing.empty()) {
     const std::string message =
         "IKBody.setup_humanoid(): the skeleton lacks the humanoid bones " + missing +
-        "; it needs Godot's SkeletonProfileHumanoid names (retarget the model on import with a BoneMap). Nothing "
-        "was changed.";
+        " (SkeletonProfileHumanoid requires them; Chest, UpperChest and Neck may be missing); it needs Godot's "
+        "humanoid names (retarget the model on import with a BoneMap). Nothing was changed.";
     IKCHAIN_PRINT_ERROR(message.c_str());
     return false;
   }
   auto bone_of = [&](const char* name) { return int(skel.find_bone(gdx::String(name))); };
+  // The look spread names the head's ancestors down to the spine: only when they are the profile's
+  // bones (extra bones in between, a twist bone say, would take the shares instead).
+  bool look_chain = true;
+  int b = bone_of("Head");
+  for (const LookShare& link : kLookShares) {
+    if (std::string_view(link.bone) != "Head" && bone_of(link.bone) < 0) continue;
+    if (b != bone_of(link.bone)) look_chain = false;
+    if (b >= 0) b = int(skel.get_bone_parent(b));
+  }
+  if (!look_chain)
+    IKCHAIN_PRINT_WARNING("IKBody.setup_humanoid(): the bones from Head down to Spine are not SkeletonProfileHumanoid's "
+                          "chain (Head, Neck, UpperChest, Chest, Spine, each the parent of the one before, those "
+                          "present), so the head's look_shares are left empty (it looks alone); set them by hand.");
 
   // Effectors: contacts at level 1 (the hips only softly), hands at 2, the head's look at 3.
   struct EffectorSpec {
@@ -86,8 +108,12 @@ bool IKBody::setup_humanoid() {
     e->set_rotation_weight(spec.rotation_weight);
     if (std::string_view(spec.bone) == "Head") {
       // Ready to look (turn on look_at): the turn spread over head, neck, upper chest, chest, spine.
+      double total = 0.0;
+      for (const LookShare& link : kLookShares)
+        if (bone_of(link.bone) >= 0) total += link.share;
       gdx::Array shares;
-      for (double share : {0.35, 0.25, 0.15, 0.15, 0.1}) shares.push_back(gdx::Variant(share));
+      for (const LookShare& link : kLookShares)
+        if (look_chain && bone_of(link.bone) >= 0) shares.push_back(gdx::Variant(link.share / total));
       e->set_look_shares(shares);
     }
     effectors.push_back(held);
@@ -136,9 +162,9 @@ bool IKBody::setup_humanoid() {
   add_hinge("RightLowerArm", "RightHand", true);
   // The spine bends reluctantly (motion cost 2): arms reach first, the spine joins when they cannot.
   add_cone("Spine", 30.0, 30.0, 2.0);
-  add_cone("Chest", 30.0, 30.0, 2.0);
-  add_cone("UpperChest", 30.0, 30.0, 2.0);
-  add_cone("Neck", 40.0, 60.0, 1.0);
+  if (bone_of("Chest") >= 0) add_cone("Chest", 30.0, 30.0, 2.0);
+  if (bone_of("UpperChest") >= 0) add_cone("UpperChest", 30.0, 30.0, 2.0);
+  if (bone_of("Neck") >= 0) add_cone("Neck", 40.0, 60.0, 1.0);
 
   set_root_bone(gdx::String("Hips"));
   set_floating_root(true);

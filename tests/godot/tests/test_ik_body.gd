@@ -265,6 +265,78 @@ func test_setup_humanoid_names_missing_bones_and_changes_nothing() -> void:
 	check_eq(body.root_bone, "", "root_bone untouched")
 
 
+# SkeletonProfileHumanoid requires neither Chest, UpperChest nor Neck (a rig with fewer spine bones
+# is retargeted without them): the set-up uses the bones there are, the look's shares over those
+# present sum to 1, and the body crouches with its feet planted.
+func test_setup_humanoid_without_the_optional_spine_bones() -> void:
+	var profile := SkeletonProfileHumanoid.new()
+	var skipped := ["UpperChest", "Neck"]
+	for i in profile.bone_size:
+		if profile.is_required(i):
+			check(not skipped.has(String(profile.get_bone_name(i))), "%s is optional in the profile" % profile.get_bone_name(i))
+	var skel := Skeleton3D.new()
+	skel.name = "Skeleton"
+	var globals := {}
+	for i in profile.bone_size:
+		var name := profile.get_bone_name(i)
+		var parent := profile.get_bone_parent(i)
+		globals[name] = (globals[parent] if parent != &"" else Transform3D()) * profile.get_reference_pose(i)
+		if skipped.has(String(name)):
+			continue
+		while skipped.has(String(parent)):
+			parent = profile.get_bone_parent(profile.find_bone(parent))
+		var b := skel.add_bone(name)
+		if parent != &"":
+			skel.set_bone_parent(b, skel.find_bone(parent))
+			skel.set_bone_rest(b, (globals[parent] as Transform3D).affine_inverse() * globals[name])
+		else:
+			skel.set_bone_rest(b, globals[name])
+	skel.reset_bone_poses()
+	case_root.add_child(skel)
+	check_eq(skel.find_bone("UpperChest"), -1, "no UpperChest")
+	check_eq(skel.get_bone_name(skel.get_bone_parent(skel.find_bone("Head"))), "Chest", "the head hangs from the chest")
+	var body := IKBody.new()
+	skel.add_child(body)
+	check(body.setup_humanoid(), "setup_humanoid() succeeds without UpperChest and Neck")
+	var joints := {}
+	for j in body.joints:
+		joints[(j as IKChainJoint).bone_name] = j
+	check(joints.has("Spine") and joints.has("Chest"), "the spine bones there are have cones")
+	check(not joints.has("UpperChest") and not joints.has("Neck"), "no joint names a missing bone")
+	var head: IKBodyEffector = null
+	for e in body.effectors:
+		if (e as IKBodyEffector).bone_name == "Head":
+			head = e
+	if not check(head != null, "a head effector"):
+		return
+	var sum := 0.0
+	for share in head.look_shares:
+		sum += float(share)
+	check_eq(head.look_shares.size(), 3, "a share each for head, chest and spine")
+	check_near(sum, 1.0, 1e-9, "the shares sum to 1")
+	var other := []
+	for w in body._get_configuration_warnings():
+		if not String(w).contains("has no target"):
+			other.append(w)
+	check_eq(other.size(), 0, "no configuration warning but the targets to assign: %s" % [other])
+	var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
+	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
+	var targets := {"Hips": hips.translated(Vector3(0, -0.1, 0)), "LeftFoot": lfoot, "RightFoot": rfoot}
+	for e in body.effectors:
+		var bone := String((e as IKBodyEffector).bone_name)
+		if targets.has(bone):
+			e.target = body.get_path_to(_target("T" + bone, targets[bone]))
+	body.max_iterations = 300
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	check(_all_finite(cap), "every bone pose finite")
+	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-3, "left foot stays (m)")
+	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-3, "right foot stays (m)")
+	check(_origin(skel, cap, "Hips").y < hips.origin.y - 0.05, "the hips went down")
+
+
 # ------------------------------------------------------------------ blending with animation
 
 # The incoming pose is the animation's (here set by script, as an AnimationPlayer would each frame):
