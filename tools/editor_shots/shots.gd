@@ -16,8 +16,8 @@ const OUT_ENV := "IKCHAIN_SHOTS_DIR"
 const BODY_SCENE := "res://addons/shots/humanoid_shots.tscn"
 const SETUP_BUTTON := "Set up humanoid"  # ik_body_inspector.gd's BUTTON_TEXT
 ## Where the 3D view looks from and at for the humanoid (metres; the skeleton stands at the origin).
-const BODY_EYE := Vector3(1.25, 1.45, 2.35)
-const BODY_LOOK := Vector3(0.0, 0.82, 0.05)
+const BODY_EYE := Vector3(1.32, 1.26, 1.26)
+const BODY_LOOK := Vector3(0.0, 0.85, 0.1)
 ## The effector shown unfolded in the last shot.
 const SHOWN_EFFECTOR := "LeftHand"
 
@@ -84,6 +84,9 @@ func _body_step(f: int) -> void:
 			skel.add_child(_body, true)
 			_body.owner = root
 			_select("Humanoid/Skeleton3D/IKBody")
+		35:
+			_fold_scene_rows()
+			_widen_inspector()
 		50:
 			_frame_body()
 		90:
@@ -100,14 +103,17 @@ func _body_step(f: int) -> void:
 		170:
 			_save("editor-ikbody-humanoid.png")
 		180:
-			# Action 3: each effector's target, a marker of the scene.
-			var targets := ei.get_edited_scene_root().get_node("Targets")
+			# Action 3: each effector's target, a marker of the scene: the other effectors' through
+			# the editor's undo-redo (as the inspector sets them), the one shown through its
+			# inspector property (below), as the user's pick does.
+			var undo := get_undo_redo()
 			for e in _body.get("effectors"):
-				var marker := targets.get_node_or_null(String(e.get("bone_name")) + "Target")
-				if marker == null:
-					push_error("shots: no target for " + String(e.get("bone_name")))
-				else:
-					e.set("target", _body.get_path_to(marker))
+				if String(e.get("bone_name")) == SHOWN_EFFECTOR:
+					continue
+				undo.create_action("Set target")
+				undo.add_do_property(e, &"target", _target_path(String(e.get("bone_name"))))
+				undo.add_undo_property(e, &"target", e.get("target"))
+				undo.commit_action()
 			ei.get_selection().clear()
 		190:
 			_select("Humanoid/Skeleton3D/IKBody")
@@ -116,16 +122,61 @@ func _body_step(f: int) -> void:
 			if effectors == null:
 				push_error("shots: no effectors property in the inspector")
 			else:
-				_first_button(effectors).pressed.emit()  # unfold the list
+				var edit := _first_button(effectors)
+				edit.button_pressed = true  # a toggle: the click that unfolds the list
+				edit.pressed.emit()
 		230:
 			_unfold_effector(SHOWN_EFFECTOR)
 		250:
+			var shown := _find_property(ei.get_inspector(), "target")
+			if shown == null:
+				push_error("shots: the %s effector's target is not in the inspector" % SHOWN_EFFECTOR)
+			else:
+				shown.emit_changed(&"target", _target_path(SHOWN_EFFECTOR))
 			_frame_body()
 		300:
 			_save("editor-ikbody-targets.png")
 		310:
 			print("SHOTS_DONE")
 			ei.get_base_control().get_tree().quit()
+
+
+## Folds the scene dock's rows of the mannequin's meshes (the user's fold arrows), so the
+## Skeleton3D and its new IKBody show together.
+func _fold_scene_rows() -> void:
+	var root := get_editor_interface().get_edited_scene_root()
+	var skel := root.get_node("Humanoid/Skeleton3D")
+	for tree in get_editor_interface().get_base_control().find_children("*", "Tree", true, false):
+		var item: TreeItem = (tree as Tree).get_root()
+		if item == null or not (item.get_metadata(0) is NodePath):
+			continue
+		while item != null:
+			var node := root.get_node_or_null(item.get_metadata(0)) if item.get_metadata(0) is NodePath else null
+			if node != null and (node.get_parent() == skel and node != _body or node.name == "Targets"):
+				item.collapsed = true
+			item = item.get_next_in_tree()
+
+
+## Widens the inspector dock (property values not cut off) and makes the scene dock taller (the
+## whole humanoid's rows), as a user drags the docks' dividers; a smaller move/rotate gizmo.
+func _widen_inspector() -> void:
+	var base := get_editor_interface().get_base_control()
+	var right := base.find_child("DockVSplitRightL", true, false) as Control
+	if right != null:
+		right.custom_minimum_size.x = 360
+	var left := base.find_child("DockVSplitLeftR", true, false)
+	if left != null:
+		left.set("split_offset", 240)
+	get_editor_interface().get_editor_settings().set_setting("editors/3d/manipulator_gizmo_size", 45)
+
+
+## The path from the IKBody to the scene's marker for `bone` (Targets/<bone>Target).
+func _target_path(bone: String) -> NodePath:
+	var marker := get_editor_interface().get_edited_scene_root().get_node_or_null("Targets/" + bone + "Target")
+	if marker == null:
+		push_error("shots: no target for " + bone)
+		return NodePath()
+	return _body.get_path_to(marker)
 
 
 ## Points the 3D view at the humanoid (the editor moves its camera only when its own cursor moves).
@@ -144,13 +195,23 @@ func _unfold_effector(bone: String) -> void:
 			index = i
 	for picker in inspector.find_children("*", "EditorResourcePicker", true, false):
 		if picker.get("edited_resource") == list[index]:
-			_first_button(picker).pressed.emit()
+			var widest: Button = null
+			for b in picker.find_children("*", "Button", true, false):
+				if widest == null or b.size.x > widest.size.x:
+					widest = b
+			widest.pressed.emit()  # the resource's button: opens its sub-inspector
 			await get_tree().process_frame
 			await get_tree().process_frame
 			var property := picker.get_parent()
 			while property != null and not property is EditorProperty:
 				property = property.get_parent()
 			if property != null:
+				# Its first group, Target (the user's click on the group's title).
+				var sections := property.find_children("*", "EditorInspectorSection", true, false)
+				if not sections.is_empty():
+					sections[0].call("unfold")
+				await get_tree().process_frame
+				await get_tree().process_frame
 				inspector.ensure_control_visible(property)
 				inspector.scroll_vertical = maxi(0, inspector.scroll_vertical + int(property.get_global_rect().position.y - inspector.get_global_rect().position.y) - 140)
 			return
