@@ -136,6 +136,12 @@ func _body_step(f: int) -> void:
 			_frame_body()
 		300:
 			_save("editor-ikbody-targets.png")
+			var r: Dictionary = _body.call(&"get_last_result")
+			var errors := []
+			for i in _body.get("effectors").size():
+				errors.append("%s %.4f m %.4f rad" % [_body.get("effectors")[i].get("bone_name"),
+						_body.call(&"get_last_effector_position_error", i), _body.call(&"get_last_effector_rotation_error", i)])
+			print("BODY %s, %d iterations; %s" % [r.get("reason"), r.get("iterations"), ", ".join(errors)])
 		310:
 			print("SHOTS_DONE")
 			ei.get_base_control().get_tree().quit()
