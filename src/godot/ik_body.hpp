@@ -101,7 +101,13 @@ class IKBody : public IKModifier {
   void configure(const gdx::Skeleton3D& skeleton, std::vector<Problem>& problems, SkeletonTreeDesc* desc,
                  std::vector<Slot>* slots, std::vector<gdx::Variant>* held) const;
   bool needs_rebuild(const gdx::Skeleton3D& skeleton) const;
-  void on_resource_changed() override { resources_touched_ = true; }
+  // An effector's target or weight edit can add or clear a warning (no target, zero weights):
+  // refresh the editor's triangle (a no-op outside the editor; target_transform, the per-frame
+  // setter, emits no change).
+  void on_resource_changed() override {
+    resources_touched_ = true;
+    settings_changed();
+  }
   // The joints' and effectors' identities and revisions in one number.
   uint64_t resource_revision() const;
   void rebuild(const gdx::Skeleton3D& skeleton);
