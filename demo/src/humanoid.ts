@@ -111,14 +111,14 @@ export interface BodyGoalInfo {
 
 export const BODY_GOALS: readonly BodyGoalInfo[] = [
   { label: 'left foot', effector: E.lFoot, level: 1, kind: 'position' },
-  { label: 'left foot rotation', effector: E.lFoot, level: 1, kind: 'orientation' },
+  { label: 'left foot rot.', effector: E.lFoot, level: 1, kind: 'orientation' },
   { label: 'right foot', effector: E.rFoot, level: 1, kind: 'position' },
-  { label: 'right foot rotation', effector: E.rFoot, level: 1, kind: 'orientation' },
+  { label: 'right foot rot.', effector: E.rFoot, level: 1, kind: 'orientation' },
   { label: 'hips facing', effector: E.hips, level: 1, kind: 'aim' },
   { label: 'left hand', effector: E.lHand, level: 2, kind: 'position' },
   { label: 'right hand', effector: E.rHand, level: 2, kind: 'position' },
   { label: 'head look', effector: E.head, level: 2, kind: 'aim' },
-  { label: 'hips position', effector: E.hips, level: 3, kind: 'position' },
+  { label: 'hips (hint)', effector: E.hips, level: 3, kind: 'position' },
 ];
 
 export const HEAD_FORWARD: Vec3 = [0, 0, 1];
