@@ -23,13 +23,13 @@ export class BodyCharts {
   constructor(timeEl: HTMLElement, errorEl: HTMLElement) {
     const width = (el: HTMLElement) => Math.max(320, el.clientWidth || 480);
     this.time = new uPlot({
-      width: width(timeEl), height: 200,
+      width: width(timeEl), height: 200, legend: { live: false },
       scales: { x: { time: false, range: (_u, min, max) => [min, Math.max(max, min + 1)] }, us: { range: (_u, _min, max) => [0, Math.max(10, max * 1.1)] }, it: { range: (_u, _min, max) => [0, Math.max(5, max * 1.1)] } },
       axes: [axis('time (s)'), axis('µs', { scale: 'us', size: 60 }), axis('iterations', { scale: 'it', side: 1, grid: { show: false } })],
       series: [{ label: 't' }, { label: 'µs', scale: 'us', stroke: '#4e79a7', width: 1.5 }, { label: 'iterations', scale: 'it', stroke: '#f28e2b', width: 1.5 }],
     }, [[], [], []], timeEl);
     this.error = new uPlot({
-      width: width(errorEl), height: 200,
+      width: width(errorEl), height: 200, legend: { live: false },
       scales: { x: { time: false, range: (_u, min, max) => [min, Math.max(max, min + 1)] }, y: { distr: 3 } },
       axes: [axis('time (s)'), axis('mm · °', { size: 70, values: logTicks })],
       series: [{ label: 't' }, ...BODY_GOALS.map((g, i) => ({

@@ -94,9 +94,9 @@ export class BodyView {
                                 new THREE.MeshStandardMaterial({ color: 0xa7773f, roughness: 0.8 }));
     this.scene.add(this.crate);
 
-    this.camera.position.set(1.75, 1.35, 2.45);
+    this.camera.position.set(1.6, 1.25, 2.3);
     this.orbit = new OrbitControls(this.camera, dom);
-    this.orbit.target.set(0, 0.68, 0.15);
+    this.orbit.target.set(0, 0.62, 0.15);
     this.orbit.update();
 
     // The body: a sphere per joint, a capsule per bone (rigid: each capsule has its bone's length).
@@ -166,7 +166,7 @@ export class BodyView {
       mesh.userData.target = t.id;
       g.add(mesh);
       const l = label(t.id === 'hips' ? 'hips · 1 facing, 3 position' : `${t.label} · ${t.level}`, LEVEL_COLOR[t.level]);
-      l.position.set(t.id === 'hips' ? -0.3 : 0, t.id === 'hips' ? -0.02 : 0.1, 0);
+      l.position.set(t.id === 'hips' ? -0.42 : 0, t.id === 'hips' ? -0.06 : 0.1, 0);
       l.center.set(0.5, 1);
       g.add(l);
       this.targets[t.id] = g;

@@ -197,7 +197,7 @@ try {
         met.map((g) => `${g.label} ${g.worstRecent.toExponential(1)}`).join(', '));
   check('body: the floating root crouches to reach the crate (hips below 0.6 m; standing 0.74)', b.lowestHips < 0.6, `lowest ${b.lowestHips.toFixed(3)} m`);
   check('body: the panel shows numbers (µs per frame, every goal error)',
-        Number(b.shown.us) > 0 && b.shown.goals.length === 9 && b.shown.goals.every((t) => /^\d+\.\d+ (mm|°)$/.test(t)),
+        Number(b.shown.us) > 0 && b.shown.goals.length === 9 && b.shown.goals.every((t) => /^\d+\.\d+ ?(mm|°)$/.test(t)),
         `${b.shown.us} us, ${b.shown.goals.join(' | ')}`);
   check('body: both charts hold the frames (µs, iterations, 9 goal errors)',
         b.plotted.length === 2 && b.plotted[0].length === 2 && b.plotted[1].length === 9 && b.plotted.flat().every((n) => n >= 30),
