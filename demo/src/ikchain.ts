@@ -94,6 +94,9 @@ export interface Options {
   warmStart?: boolean; // start from the current pose (true) or the rest pose
   maxStepAngle?: number; // rad per iteration and joint, 0 = no cap
   timeBudgetUsec?: number; // µs of wall clock per solve, restarts included; 0 = none
+  // The core's safety cap on a solve's wall-clock time (µs, 0 = none; the core's default 50 ms): a
+  // net, not a budget. Tests that must not depend on the machine's load turn it off.
+  timeCapUsec?: number;
   // Restarts from seeded random in-limit poses while the goals are unmet and not provably out of
   // reach (off by default: a restart may jump to another branch between frames); the best pose of
   // all runs is kept. The same seed gives the same restarts, so the same result.
@@ -137,7 +140,7 @@ export class Chain {
   private readonly raw: RawWebChain;
   private opts: Required<Options> = {
     maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, maxStepAngle: 0,
-    timeBudgetUsec: 0, maxRestarts: 0, restartSeed: 1,
+    timeBudgetUsec: 0, timeCapUsec: 50_000, maxRestarts: 0, restartSeed: 1,
   };
 
   // Use IKCore.createChain / createBenchChain.
@@ -202,6 +205,7 @@ export class Chain {
     this.raw.setWarmStart(o.warmStart);
     this.raw.setMaxStepAngle(o.maxStepAngle);
     this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
+    this.raw.setTimeCapUsec(o.timeCapUsec);
     this.raw.setMaxRestarts(o.maxRestarts);
     this.raw.setRestartSeed(o.restartSeed);
   }
@@ -287,6 +291,7 @@ export interface TreeOptions {
   orientationTolerance?: number; // rad
   warmStart?: boolean;
   timeBudgetUsec?: number;
+  timeCapUsec?: number; // as Options.timeCapUsec
   // With a posture: once every goal is met, stop after this many more iterations (0 = until it settles).
   postureIterations?: number;
 }
@@ -308,7 +313,7 @@ export class Tree {
   readonly spec: TreeSpec;
   private opts: Required<TreeOptions> = {
     maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, timeBudgetUsec: 0,
-    postureIterations: 0,
+    timeCapUsec: 50_000, postureIterations: 0,
   };
   private errors = new Float64Array(0);
 
@@ -382,6 +387,7 @@ export class Tree {
     this.raw.setTolerances(o.positionTolerance, o.orientationTolerance);
     this.raw.setWarmStart(o.warmStart);
     this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
+    this.raw.setTimeCapUsec(o.timeCapUsec);
     this.raw.setPostureIterations(o.postureIterations);
   }
 

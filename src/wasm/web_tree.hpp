@@ -67,6 +67,7 @@ class WebTree {
   }
   void set_warm_start(bool on) { options_.warm_start = on; }
   void set_time_budget_usec(double usec) { options_.time_budget_usec = usec; }
+  void set_time_cap_usec(double usec) { options_.time_cap_usec = usec; }  // 0 = none
 
   // --- solving; the result stays readable until the next solve. Returns the termination reason's
   // code (core/result.hpp).

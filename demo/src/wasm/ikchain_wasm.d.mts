@@ -43,6 +43,7 @@ export interface RawWebChain {
   setWarmStart(on: boolean): void;
   setMaxStepAngle(radians: number): void;
   setTimeBudgetUsec(usec: number): void;
+  setTimeCapUsec(usec: number): void;
   setMaxRestarts(n: number): void;
   setRestartSeed(seed: number): void;
   solve(kind: number): number;
@@ -90,6 +91,7 @@ export interface RawWebTree {
   setTolerances(position: number, orientation: number): void;
   setWarmStart(on: boolean): void;
   setTimeBudgetUsec(usec: number): void;
+  setTimeCapUsec(usec: number): void;
   solve(kind: number): number;
   resetPose(): void;
   result(): RawTreeResult;
