@@ -2,7 +2,7 @@
 // forward-kinematics pass and benchmark case runs in the core; this file only shapes arguments
 // and results for TypeScript.
 import createIKChain from './wasm/ikchain_wasm.mjs';
-import type { IKChainModule, RawWebChain } from './wasm/ikchain_wasm.mjs';
+import type { IKChainModule, RawWebChain, RawWebTree } from './wasm/ikchain_wasm.mjs';
 
 export type Vec3 = readonly [number, number, number];
 export type Quat = readonly [number, number, number, number]; // x, y, z, w
@@ -94,6 +94,9 @@ export interface Options {
   warmStart?: boolean; // start from the current pose (true) or the rest pose
   maxStepAngle?: number; // rad per iteration and joint, 0 = no cap
   timeBudgetUsec?: number; // µs of wall clock per solve, restarts included; 0 = none
+  // The core's safety cap on a solve's wall-clock time (µs, 0 = none; the core's default 50 ms): a
+  // net, not a budget. Tests that must not depend on the machine's load turn it off.
+  timeCapUsec?: number;
   // Restarts from seeded random in-limit poses while the goals are unmet and not provably out of
   // reach (off by default: a restart may jump to another branch between frames); the best pose of
   // all runs is kept. The same seed gives the same restarts, so the same result.
@@ -137,7 +140,7 @@ export class Chain {
   private readonly raw: RawWebChain;
   private opts: Required<Options> = {
     maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, maxStepAngle: 0,
-    timeBudgetUsec: 0, maxRestarts: 0, restartSeed: 1,
+    timeBudgetUsec: 0, timeCapUsec: 50_000, maxRestarts: 0, restartSeed: 1,
   };
 
   // Use IKCore.createChain / createBenchChain.
@@ -202,6 +205,7 @@ export class Chain {
     this.raw.setWarmStart(o.warmStart);
     this.raw.setMaxStepAngle(o.maxStepAngle);
     this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
+    this.raw.setTimeCapUsec(o.timeCapUsec);
     this.raw.setMaxRestarts(o.maxRestarts);
     this.raw.setRestartSeed(o.restartSeed);
   }
@@ -257,6 +261,186 @@ export class Chain {
   dispose(): void { this.raw.delete(); }
 }
 
+
+// --- Trees (whole bodies): core/tree.hpp, core/tree_solve.hpp through src/wasm/web_tree.hpp.
+
+// A joint of a tree: `parent` is an earlier joint's index (-1: the base); the offset is from the
+// parent's frame, the rest rotation identity. Ball limits: a cone about `twistAxis` (the bone's
+// direction in joint space) and a twist range about it. motionCost: how reluctantly the solver
+// moves it (1 = as any joint).
+export type TreeJointSpec =
+  | { name: string; type: 'ball'; parent: number; offset: Vec3; motionCost?: number;
+      limits?: { cone: number; twistMin: number; twistMax: number; twistAxis: Vec3 } }
+  | { name: string; type: 'hinge'; parent: number; offset: Vec3; axis: Vec3; motionCost?: number;
+      limits?: { min: number; max: number } };
+
+export interface TreeSpec {
+  joints: readonly TreeJointSpec[];
+  effectors: readonly { name: string; joint: number; offset: Vec3 }[];
+  // Joint 0 (a ball with parent -1) also translates: 3 more params first (m, base space).
+  floatingRoot?: boolean;
+  translationMotionCost?: number;
+}
+
+// A goal on a tree effector at a priority level (1 = highest, up to 4).
+export type TreeGoal = Goal & { effector: number; level: number };
+
+export interface TreeOptions {
+  maxIterations?: number;
+  positionTolerance?: number; // m
+  orientationTolerance?: number; // rad
+  warmStart?: boolean;
+  timeBudgetUsec?: number;
+  timeCapUsec?: number; // as Options.timeCapUsec
+  // With a posture: once every goal is met, stop after this many more iterations (0 = until it settles).
+  postureIterations?: number;
+}
+
+export interface TreeSolveResult extends SolveResult {
+  goalErrors: number[]; // per goal, in setGoals' order: m for position goals, rad otherwise
+  levelMet: boolean[]; // per level 1..4 (index level - 1)
+}
+
+export interface TreeFrames {
+  joints: JointFrame[];
+  effectors: [number, number, number][];
+}
+
+const INTEGER_TREE_OPTIONS = ['maxIterations', 'postureIterations'] as const;
+
+export class Tree {
+  private readonly raw: RawWebTree;
+  readonly spec: TreeSpec;
+  private opts: Required<TreeOptions> = {
+    maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, timeBudgetUsec: 0,
+    timeCapUsec: 50_000, postureIterations: 0,
+  };
+  private errors = new Float64Array(0);
+
+  // Use IKCore.createTree.
+  constructor(raw: RawWebTree, spec: TreeSpec) {
+    this.raw = raw;
+    this.spec = spec;
+    this.applyOptions();
+  }
+
+  get jointCount(): number { return this.raw.jointCount(); }
+  get dofCount(): number { return this.raw.dofCount(); }
+  get effectorCount(): number { return this.raw.effectorCount(); }
+  get options(): Readonly<Required<TreeOptions>> { return this.opts; }
+  get goalCount(): number { return this.raw.goalCount(); }
+
+  // Replaces every goal. Throws IKError naming the goal when one is refused; the effector and the
+  // level are checked by the core at the next solve (reason invalid_input, the message names them).
+  setGoals(goals: readonly TreeGoal[]): void {
+    this.raw.clearGoals();
+    goals.forEach((g, i) => {
+      const w = g.weight ?? 1;
+      let message: string;
+      if (g.kind === 'position') {
+        message = this.raw.addPositionGoal(g.target[0], g.target[1], g.target[2], g.effector, w, g.level);
+      } else if (g.kind === 'orientation') {
+        const q = g.quaternion;
+        message = this.raw.addOrientationGoal(q[0], q[1], q[2], q[3], g.effector, w, g.level);
+      } else {
+        message = this.raw.addAimGoal(g.axis[0], g.axis[1], g.axis[2], g.direction[0], g.direction[1], g.direction[2],
+                                      g.effector, w, g.level);
+      }
+      check(message, `goal ${i}`);
+    });
+    this.errors = new Float64Array(goals.length);
+  }
+
+  // Per-frame updates that allocate nothing in the core. Throw when goal `index` is of another kind.
+  setGoalPosition(index: number, p: Vec3): void {
+    if (!this.raw.setGoalPosition(index, p[0], p[1], p[2]))
+      throw new IKError(`setGoalPosition: goal ${index} is not a position goal`);
+  }
+  setGoalOrientation(index: number, q: Quat): void {
+    if (!this.raw.setGoalOrientation(index, q[0], q[1], q[2], q[3]))
+      throw new IKError(`setGoalOrientation: goal ${index} is not an orientation goal`);
+  }
+  setAimDirection(index: number, d: Vec3): void {
+    if (!this.raw.setGoalAimDirection(index, d[0], d[1], d[2]))
+      throw new IKError(`setAimDirection: goal ${index} is not an aim goal`);
+  }
+
+  // The posture below every level: preferred params (dofCount values) and one stiffness in [0, 1].
+  setPosture(values: ArrayLike<number>, stiffness: number): void {
+    check(this.raw.setPosture(Array.from(values), stiffness), 'setPosture');
+  }
+  clearPosture(): void { this.raw.clearPosture(); }
+
+  setOptions(options: TreeOptions): void {
+    for (const name of INTEGER_TREE_OPTIONS) {
+      const v = options[name];
+      if (v !== undefined && !(Number.isInteger(v) && v >= -(2 ** 31) && v <= 2 ** 31 - 1))
+        throw new IKError(`setOptions: ${name} must be an integer, got ${v}`);
+    }
+    this.opts = { ...this.opts, ...options };
+    this.applyOptions();
+  }
+
+  private applyOptions(): void {
+    const o = this.opts;
+    this.raw.setMaxIterations(o.maxIterations);
+    this.raw.setTolerances(o.positionTolerance, o.orientationTolerance);
+    this.raw.setWarmStart(o.warmStart);
+    this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
+    this.raw.setTimeCapUsec(o.timeCapUsec);
+    this.raw.setPostureIterations(o.postureIterations);
+  }
+
+  solve(kind: SolverKind = SolverKind.DLS): TreeSolveResult {
+    this.raw.solve(kind);
+    return this.result();
+  }
+  // The same solve without building a result object (per frame); returns the reason.
+  solveFast(kind: SolverKind = SolverKind.DLS): TerminationReason {
+    return REASONS[this.raw.solve(kind)] ?? 'invalid_input';
+  }
+  get lastIterations(): number { return this.raw.lastIterations(); }
+  get lastElapsedUs(): number { return this.raw.lastElapsedUs(); }
+  get lastFinalError(): number { return this.raw.lastFinalError(); }
+  // The last solve's per-goal errors, in setGoals' order (a view reused between calls).
+  goalErrors(): Float64Array {
+    this.raw.goalErrorsInto(this.errors);
+    return this.errors;
+  }
+
+  result(): TreeSolveResult {
+    const r = this.raw.result();
+    return {
+      reason: r.reason as TerminationReason, usable: r.usable, iterations: r.iterations,
+      initialError: r.initialError, finalError: r.finalError, finalPositionError: r.finalPositionError,
+      finalOrientationError: r.finalOrientationError, elapsedUs: r.elapsedUs, budgetExhausted: r.budgetExhausted,
+      restarts: r.restarts, escapes: r.escapes, message: r.message,
+      goalErrors: Array.from(r.goalErrors), levelMet: [...r.levelMet],
+    };
+  }
+
+  params(): Float64Array { return this.raw.params(); }
+  setParams(values: ArrayLike<number>): void { check(this.raw.setParams(Array.from(values)), 'setParams'); }
+  resetPose(): void { this.raw.resetPose(); }
+
+  // Joint frames and effector positions of the current pose (forward kinematics in the core).
+  framesArray(): Float64Array { return this.raw.frames(); }
+  frames(): TreeFrames {
+    const f = this.raw.frames();
+    const n = this.raw.jointCount();
+    const joints: JointFrame[] = [];
+    for (let i = 0; i < n; ++i) {
+      const o = 7 * i;
+      joints.push({ position: [f[o], f[o + 1], f[o + 2]], quaternion: [f[o + 3], f[o + 4], f[o + 5], f[o + 6]] });
+    }
+    const effectors: [number, number, number][] = [];
+    for (let e = 0, o = 7 * n; o + 2 < f.length; ++e, o += 3) effectors.push([f[o], f[o + 1], f[o + 2]]);
+    return { joints, effectors };
+  }
+
+  dispose(): void { this.raw.delete(); }
+}
+
 export interface ConvergenceTrace {
   errors: number[]; // errors[k]: tip distance after a budget of k iterations (k = 0: the rest pose)
   stopped: string;
@@ -291,6 +475,32 @@ export class IKCore {
       throw new IKError(`chain: ${message}`);
     }
     return new Chain(raw);
+  }
+
+  // A tree from its joints and effectors; throws IKError with the core's message (naming the joint
+  // or effector) when it does not build.
+  createTree(spec: TreeSpec): Tree {
+    const raw = new this.module.WebTree();
+    for (const j of spec.joints) {
+      const o = j.offset;
+      if (j.type === 'ball') {
+        const l = j.limits;
+        const a = l?.twistAxis ?? [0, 1, 0];
+        raw.addBall(j.parent, o[0], o[1], o[2], !!l, l?.cone ?? 0, l?.twistMin ?? 0, l?.twistMax ?? 0, a[0], a[1], a[2],
+                    j.motionCost ?? 1);
+      } else {
+        raw.addHinge(j.parent, o[0], o[1], o[2], j.axis[0], j.axis[1], j.axis[2], !!j.limits, j.limits?.min ?? 0,
+                     j.limits?.max ?? 0, j.motionCost ?? 1);
+      }
+    }
+    for (const e of spec.effectors) raw.addEffector(e.joint, e.offset[0], e.offset[1], e.offset[2]);
+    raw.setFloatingRoot(!!spec.floatingRoot, spec.translationMotionCost ?? 1);
+    const message = raw.build();
+    if (message !== '') {
+      raw.delete();
+      throw new IKError(`tree: ${message}`);
+    }
+    return new Tree(raw, spec);
   }
 
   createArm(spec: ArmSpec): Chain {

@@ -187,6 +187,9 @@ ConvergenceTrace convergence_trace(int solver_kind) {
   trace.tolerance = bench_cases::kRelTolerance * c.total_length();
   c.set_tolerances(trace.tolerance, c.options().orientation_tolerance);
   c.set_warm_start(false);
+  // Every budget runs in full: the core's 50 ms wall-clock cap would make the figure depend on
+  // how busy the machine is.
+  c.set_time_cap_usec(0.0);
   c.add_position_goal(target.x, target.y, target.z, 0, 1.0);
   trace.errors.push_back(glm::length(probe.rest_tip() - target));  // k = 0
   const int max_k = std::min(bench_cases::max_iterations_for(static_cast<SolverKind>(solver_kind)),
@@ -219,6 +222,7 @@ PrecisionRun precision_run(int solver_kind, bool planar) {
   c.set_tolerances(bench_cases::kRelTolerance * c.total_length(), c.options().orientation_tolerance);
   c.set_warm_start(true);
   c.set_max_iterations(bench_cases::max_iterations_for(static_cast<SolverKind>(solver_kind)));
+  c.set_time_cap_usec(0.0);  // as in convergence_trace: the iteration budget alone ends the run
   c.add_position_goal(pc.target.x, pc.target.y, pc.target.z, 0, 1.0);
   c.solve(solver_kind);
   const SolveResult& r = c.last_result();

@@ -52,6 +52,8 @@ class WebChain {
   void set_warm_start(bool on) { options_.warm_start = on; }
   void set_max_step_angle(double radians) { options_.max_step_angle = radians; }
   void set_time_budget_usec(double usec) { options_.time_budget_usec = usec; }
+  // The core's wall-clock safety cap (SolverOptions::time_cap_usec, 0 = none).
+  void set_time_cap_usec(double usec) { options_.time_cap_usec = usec; }
   void set_max_restarts(int n) { options_.max_restarts = n; }
   void set_restart_seed(unsigned seed) { options_.restart_seed = seed; }
   const SolverOptions& options() const { return options_; }

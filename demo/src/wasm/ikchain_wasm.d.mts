@@ -43,6 +43,7 @@ export interface RawWebChain {
   setWarmStart(on: boolean): void;
   setMaxStepAngle(radians: number): void;
   setTimeBudgetUsec(usec: number): void;
+  setTimeCapUsec(usec: number): void;
   setMaxRestarts(n: number): void;
   setRestartSeed(seed: number): void;
   solve(kind: number): number;
@@ -56,8 +57,57 @@ export interface RawWebChain {
   delete(): void;
 }
 
+export interface RawTreeResult extends RawSolveResult {
+  goalErrors: Float64Array;
+  levelMet: boolean[];
+}
+
+export interface RawWebTree {
+  clear(): void;
+  addBall(parent: number, ox: number, oy: number, oz: number, limited: boolean, cone: number, twistMin: number,
+          twistMax: number, tx: number, ty: number, tz: number, motionCost: number): number;
+  addHinge(parent: number, ox: number, oy: number, oz: number, ax: number, ay: number, az: number, limited: boolean,
+           min: number, max: number, motionCost: number): number;
+  addEffector(joint: number, ox: number, oy: number, oz: number): number;
+  setFloatingRoot(on: boolean, translationMotionCost: number): void;
+  build(): string;
+  jointCount(): number;
+  dofCount(): number;
+  effectorCount(): number;
+  clearGoals(): void;
+  goalCount(): number;
+  addPositionGoal(x: number, y: number, z: number, effector: number, weight: number, level: number): string;
+  addOrientationGoal(qx: number, qy: number, qz: number, qw: number, effector: number, weight: number,
+                     level: number): string;
+  addAimGoal(ax: number, ay: number, az: number, dx: number, dy: number, dz: number, effector: number,
+             weight: number, level: number): string;
+  setGoalPosition(index: number, x: number, y: number, z: number): boolean;
+  setGoalOrientation(index: number, qx: number, qy: number, qz: number, qw: number): boolean;
+  setGoalAimDirection(index: number, x: number, y: number, z: number): boolean;
+  setPosture(values: ArrayLike<number>, stiffness: number): string;
+  clearPosture(): void;
+  setPostureIterations(n: number): void;
+  setMaxIterations(n: number): void;
+  setTolerances(position: number, orientation: number): void;
+  setWarmStart(on: boolean): void;
+  setTimeBudgetUsec(usec: number): void;
+  setTimeCapUsec(usec: number): void;
+  solve(kind: number): number;
+  resetPose(): void;
+  result(): RawTreeResult;
+  goalErrorsInto(out: Float64Array): void;
+  lastIterations(): number;
+  lastElapsedUs(): number;
+  lastFinalError(): number;
+  params(): Float64Array;
+  setParams(values: ArrayLike<number>): string;
+  frames(): Float64Array;
+  delete(): void;
+}
+
 export interface IKChainModule {
   WebChain: new () => RawWebChain;
+  WebTree: new () => RawWebTree;
   benchMaxIterations(kind: number): number;
   benchTargets(joints: number, count: number, seed: number): Float64Array;
   convergenceTrace(kind: number): { errors: Float64Array; stopped: string; tolerance: number };
