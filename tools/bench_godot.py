@@ -273,17 +273,19 @@ def run_body(work, args):
     for tag, det in (("body_stability_warm", "0"), ("body_stability_det_1", "1"), ("body_stability_det_2", "1")):
         stab.append(run_godot(proj, work, "stability", [f"--characters={chars}", f"--frames={frames}",
                                                          f"--deterministic={det}"], script="body.gd", tag=tag))
-    # The CMU clips of the core body bench (bench/body_bench.cpp) replayed through the node: the
-    # ones with CMU's skeleton (Boxing_Toes names its joints otherwise); warm, then deterministic twice.
+    # The CMU clips of the core body bench (bench/body_bench.cpp) replayed through the node (its
+    # metres per BVH unit: CMU's ASF scale, Boxing_Toes' centimetres); warm, then deterministic twice.
     replay = []
-    for clip in (("01_01",) if quick else ("01_01", "01_03")):
+    clips = (("01_01", None),) if quick else (("01_01", None), ("01_03", None), ("Boxing_Toes", 0.01))
+    for clip, unit in clips:
         src = os.path.join(CLIPS_DIR, clip + ".bvh")
         if not os.path.exists(src):
             log(f"no {src} (scripts/setup installs Debian's assimp-testmodels): replay skipped")
             continue
         clip_json = os.path.join(work, f"clip_{clip}.json")
         subprocess.run([sys.executable, os.path.join(ROOT, "tools", "bvh_replay.py"), src, clip_json]
-                       + (["--frames", "300"] if quick else []), check=True)
+                       + (["--frames", "300"] if quick else [])
+                       + (["--metres-per-unit", str(unit)] if unit else []), check=True)
         runs = [run_godot(proj, work, "replay", [f"--clip={clip_json}", f"--deterministic={det}"], script="body.gd",
                           tag=f"body_replay_{clip}_{tag}")
                 for tag, det in (("warm", "0"), ("det_1", "1"), ("det_2", "1"))]

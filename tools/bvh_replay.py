@@ -6,7 +6,10 @@
 The skeleton keeps every BVH joint; the joints IKBody.setup_humanoid() needs are renamed to
 SkeletonProfileHumanoid's names (CMU: LowerBack -> Spine, Spine -> Chest, Spine1 -> UpperChest,
 LeftUpLeg -> LeftUpperLeg, LeftLeg -> LeftLowerLeg, LeftArm -> LeftUpperArm, LeftForeArm ->
-LeftLowerArm; Hips, Neck, Head, LeftFoot, LeftShoulder, LeftHand keep theirs). Each bone gets a
+LeftLowerArm; Hips, Neck, Head, LeftFoot, LeftShoulder, LeftHand keep theirs; Boxing_Toes: Ab ->
+Spine, LeftCollar -> LeftShoulder, LeftShoulder -> LeftUpperArm, LeftElbow -> LeftLowerArm,
+LeftWrist -> LeftHand, LeftHip/Knee/Ankle -> LeftUpperLeg/LowerLeg/Foot, no UpperChest; pass
+--metres-per-unit 0.01 for it). Each bone gets a
 rest orientation whose +Y points at its child and whose +X is the hinge axis setup_humanoid()
 reads (world X for legs and spine, world Y for the arms, which lie along X in CMU's T-pose); the
 recording's global rotation G_j of a joint maps to the bone's global basis G_j * Q_j. The hips'
@@ -22,6 +25,13 @@ RENAME = {"LowerBack": "Spine", "Spine": "Chest", "Spine1": "UpperChest",
           "LeftUpLeg": "LeftUpperLeg", "LeftLeg": "LeftLowerLeg", "RightUpLeg": "RightUpperLeg",
           "RightLeg": "RightLowerLeg", "LeftArm": "LeftUpperArm", "LeftForeArm": "LeftLowerArm",
           "RightArm": "RightUpperArm", "RightForeArm": "RightLowerArm"}
+# Boxing_Toes (the other skeleton of the clips) names its joints otherwise and has two spine bones
+# (no UpperChest: SkeletonProfileHumanoid's optional bones).
+RENAME_BOXING = {"Ab": "Spine", "LeftCollar": "LeftShoulder", "LeftShoulder": "LeftUpperArm",
+                 "LeftElbow": "LeftLowerArm", "LeftWrist": "LeftHand", "RightCollar": "RightShoulder",
+                 "RightShoulder": "RightUpperArm", "RightElbow": "RightLowerArm", "RightWrist": "RightHand",
+                 "LeftHip": "LeftUpperLeg", "LeftKnee": "LeftLowerLeg", "LeftAnkle": "LeftFoot",
+                 "RightHip": "RightUpperLeg", "RightKnee": "RightLowerLeg", "RightAnkle": "RightFoot"}
 EFFECTORS = ["Hips", "LeftHand", "RightHand", "LeftFoot", "RightFoot", "Head"]
 
 
@@ -124,15 +134,15 @@ def main():
     joints, frames, data = parse(src)
     width = sum(len(j["channels"]) for j in joints)
     frames = min(frames, len(data) // width, limit or frames)
-    names = [RENAME.get(j["name"], j["name"]) for j in joints]
+    rename = RENAME_BOXING if any(j["name"] == "Ab" for j in joints) else RENAME
+    names = [rename.get(j["name"], j["name"]) for j in joints]
     # Rest orientation per joint (global): +Y toward the child (the first child with a non-zero
-    # offset; UpperChest toward the neck), +X world X (legs, spine) or world Y (arms).
+    # offset; the neck's parent toward the neck), +X world X (legs, spine) or world Y (arms).
     rest_q = []
     for k, j in enumerate(joints):
         target = None
         kids = j["children"]
-        if names[k] == "UpperChest":
-            kids = [c for c in kids if names[c] == "Neck"] + kids
+        kids = [c for c in kids if names[c] == "Neck"] + kids
         for c in kids:
             if math.sqrt(sum(x * x for x in joints[c]["offset"])) > 1e-6:
                 target = joints[c]["offset"]
