@@ -122,7 +122,9 @@ bool IKBody::setup_humanoid() {
   // Joints: knees and elbows as hinges with human ranges, bending the way the rest pose says;
   // spine, chest and neck with cones.
   gdx::Array joints;
-  auto add_hinge = [&](const char* bone, const char* child, bool bends_forward) {
+  // Knees flex to 165° (clinically 160°; the CMU boxer's recorded knees reach 164°, which a 150°
+  // limit left out of reach), elbows to 150° (the recordings reach 143°).
+  auto add_hinge = [&](const char* bone, const char* child, bool bends_forward, double max_deg) {
     const glm::dmat4 rest = global_rest(skel, bone_of(bone));
     const glm::dvec3 axis_in_skeleton = glm::normalize(glm::dvec3(rest[0]));  // the bone's +X
     const glm::dvec3 child_in_bone = gdx::to_glm(skel.get_bone_rest(bone_of(child)).origin);
@@ -139,7 +141,7 @@ bool IKBody::setup_humanoid() {
     j->set_hinge_axis(gdx::from_glm(glm::dvec3(sign, 0.0, 0.0)));
     j->set_hinge_limit_enabled(true);
     j->set_hinge_min(0.0);
-    j->set_hinge_max(150.0 * kDeg);
+    j->set_hinge_max(max_deg * kDeg);
     joints.push_back(held);
   };
   auto add_cone = [&](const char* bone, double cone_deg, double twist_deg, double motion_cost) {
@@ -156,10 +158,10 @@ bool IKBody::setup_humanoid() {
     j->set_motion_cost(motion_cost);
     joints.push_back(held);
   };
-  add_hinge("LeftLowerLeg", "LeftFoot", false);
-  add_hinge("RightLowerLeg", "RightFoot", false);
-  add_hinge("LeftLowerArm", "LeftHand", true);
-  add_hinge("RightLowerArm", "RightHand", true);
+  add_hinge("LeftLowerLeg", "LeftFoot", false, 165.0);
+  add_hinge("RightLowerLeg", "RightFoot", false, 165.0);
+  add_hinge("LeftLowerArm", "LeftHand", true, 150.0);
+  add_hinge("RightLowerArm", "RightHand", true, 150.0);
   // The spine bends reluctantly (motion cost 2): arms reach first, the spine joins when they cannot.
   add_cone("Spine", 30.0, 30.0, 2.0);
   if (bone_of("Chest") >= 0) add_cone("Chest", 30.0, 30.0, 2.0);
