@@ -2,7 +2,7 @@
 // SkeletonProfileHumanoid (tests/core/humanoid.hpp: hips at 0.75 m, spine bones 0.1 m, upper and
 // lower arm 0.25 m, about 1.45 m tall), the rest rotations identity (a T-pose facing +Z, its left
 // on +X), the ankles 8 cm above the soles (the profile puts them at the floor), and the rig
-// IKBody.setup_humanoid() makes in Godot: knees and elbows hinges 0..150°, spine bones 30° cones
+// IKBody.setup_humanoid() makes in Godot: knees hinges 0..165°, elbows 0..150°, spine bones 30° cones
 // that bend reluctantly (motion cost 2), a floating root so the hips can crouch.
 import type { Quat, TreeGoal, TreeJointSpec, TreeSpec, Vec3 } from './ikchain.js';
 
@@ -11,8 +11,8 @@ const deg = Math.PI / 180;
 const ball = (name: string, parent: number, offset: Vec3, cone: number, twist: number, twistAxis: Vec3,
               motionCost = 1): TreeJointSpec =>
   ({ name, type: 'ball', parent, offset, motionCost, limits: { cone: cone * deg, twistMin: -twist * deg, twistMax: twist * deg, twistAxis } });
-const hinge = (name: string, parent: number, offset: Vec3, axis: Vec3): TreeJointSpec =>
-  ({ name, type: 'hinge', parent, offset, axis, limits: { min: 0, max: 150 * deg } });
+const hinge = (name: string, parent: number, offset: Vec3, axis: Vec3, maxDeg = 150): TreeJointSpec =>
+  ({ name, type: 'hinge', parent, offset, axis, limits: { min: 0, max: maxDeg * deg } });
 
 // Joint indices (depth-first: parents first).
 export const J = {
@@ -41,10 +41,10 @@ const joints: TreeJointSpec[] = [
   hinge('RightLowerArm', J.rUpperArm, [-0.25, 0, 0], [0, 1, 0]),
   ball('RightHand', J.rLowerArm, [-0.25, 0, 0], 70, 80, [-1, 0, 0]),
   ball('LeftUpperLeg', J.hips, [0.1, -0.05, 0], 90, 40, [0, -1, 0]),
-  hinge('LeftLowerLeg', J.lUpperLeg, [0, -0.31, 0], [1, 0, 0]),
+  hinge('LeftLowerLeg', J.lUpperLeg, [0, -0.31, 0], [1, 0, 0], 165),
   ball('LeftFoot', J.lLowerLeg, [0, -0.31, 0], 40, 30, [0, -1, 0]),
   ball('RightUpperLeg', J.hips, [-0.1, -0.05, 0], 90, 40, [0, -1, 0]),
-  hinge('RightLowerLeg', J.rUpperLeg, [0, -0.31, 0], [1, 0, 0]),
+  hinge('RightLowerLeg', J.rUpperLeg, [0, -0.31, 0], [1, 0, 0], 165),
   ball('RightFoot', J.rLowerLeg, [0, -0.31, 0], 40, 30, [0, -1, 0]),
 ];
 
