@@ -50,12 +50,14 @@ struct TreeEffectorDesc {
   glm::dquat rotation{1.0, 0.0, 0.0, 0.0};   // orientation relative to that frame
 };
 
-// A build error as data: which joint or effector, which field, and a message saying why.
+// A build error as data: which joint or effector, which field, and why (as chain.hpp's BuildError),
+// so a caller that knows a joint by another name (a bone) maps `joint` and shows `reason`.
 struct TreeBuildError {
   int joint = -1;            // the offending joint, or -1
   int effector = -1;         // the offending effector, or -1
   const char* field = "";    // "parent", "offset_in_parent", "limits.cone_angle", ...
-  Message message;           // "joint 3: parent (5) must be < 3 (parents precede children)"
+  Message message;           // "joint 3: parent (5) must be -1 or an earlier joint (< 3): ..."
+  Message reason;            // the same without the joint or effector: "parent (5) must be -1 or ..."
   bool ok() const { return message.empty(); }
 };
 

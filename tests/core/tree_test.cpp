@@ -2,8 +2,10 @@
 // against finite differences, and a chain as the tree without branches.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
 #include <random>
+#include <string>
 
 #include "core/kinematics.hpp"
 #include "core/solve.hpp"
@@ -251,6 +253,13 @@ TEST(Tree, InvalidTreesAreRejectedByName) {
     EXPECT_STREQ(e.field, c.field) << c.what << ": " << e.message.c_str();
     const char* dot = std::strrchr(c.field, '.');
     EXPECT_NE(std::strstr(e.message.c_str(), dot ? dot + 1 : c.field), nullptr) << c.what << ": " << e.message.c_str();
+    // The message is made from the data: the joint or effector by index, then the reason, which
+    // names neither (so a caller showing a bone's name does not show the index too).
+    char prefix[32];
+    std::snprintf(prefix, sizeof prefix, c.joint >= 0 ? "joint %d: " : "effector %d: ", c.joint >= 0 ? c.joint : c.effector);
+    EXPECT_EQ(std::string(e.message.c_str()), prefix + std::string(e.reason.c_str())) << c.what;
+    EXPECT_EQ(std::strstr(e.reason.c_str(), "joint 17"), nullptr) << c.what << ": " << e.reason.c_str();
+    EXPECT_EQ(std::strstr(e.reason.c_str(), "effector 6"), nullptr) << c.what << ": " << e.reason.c_str();
   }
   // A floating root must be a ball hanging from the base.
   TreeBuilder b;
@@ -260,6 +269,8 @@ TEST(Tree, InvalidTreesAreRejectedByName) {
   const TreeBuildError e = b.build(t);
   EXPECT_EQ(e.joint, 0);
   EXPECT_STREQ(e.field, "type");
+  EXPECT_STREQ(e.reason.c_str(), "a floating root must be a ball joint with parent -1");
+  EXPECT_STREQ(e.message.c_str(), "joint 0: a floating root must be a ball joint with parent -1");
   // Nothing at all.
   EXPECT_FALSE(TreeBuilder().build(t).ok());
 }
