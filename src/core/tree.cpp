@@ -31,11 +31,6 @@ TreeBuildError effector_error(int effector, const char* field, const Message& re
   return build_error(-1, effector, field, reason);
 }
 
-// The longest a joint's slide can add to the distance to its children (0 for turning joints).
-double longest_slide(JointType type, const JointLimits& l) {
-  return type == JointType::kPrismatic ? std::max(std::abs(l.hinge_min), std::abs(l.hinge_max)) : 0.0;
-}
-
 }  // namespace
 
 int TreeBuilder::add_joint(const TreeJointDesc& joint) {
@@ -103,10 +98,9 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     r.axis = normal.hinge_axis;
     r.limits = normal.limits;
     r.motion_cost = d.motion_cost;
-    r.has_limits = d.type == JointType::kBall ? (r.limits.has_cone_limit || r.limits.has_twist_limit)
-                                              : r.limits.has_hinge_limit;
+    r.has_limits = has_joint_limits(d.type, r.limits);
     r.dof_offset = dofs;
-    dofs += d.type == JointType::kBall ? 3 : 1;
+    dofs += joint_dof_count(d.type);
   }
   t.dof_count_ = dofs;
   t.floating_root_ = floating_root_;

@@ -100,7 +100,7 @@ class Tree {
   JointType joint_type(int i) const { return joints_[i].type; }
   int dof_offset(int i) const { return joints_[i].dof_offset; }
   // Rotation (or slide) params of joint i: 3 for a ball, 1 for a hinge or slide.
-  int dof_count_of(int i) const { return joints_[i].type == JointType::kBall ? 3 : 1; }
+  int dof_count_of(int i) const { return joint_dof_count(joints_[i].type); }
   const glm::dvec3& offset_in_parent(int i) const { return joints_[i].offset_in_parent; }
   const glm::dquat& rest_rotation(int i) const { return joints_[i].rest_rotation; }
   const glm::dvec3& axis(int i) const { return joints_[i].axis; }

@@ -152,7 +152,7 @@ bool any_limited_joint(const Tree& tree, const TreeWorkspace& ws, int columns, V
   for (int c = 0; c < columns;) {
     const int d = ws.active_dofs[c];
     const int j = ws.dof_joint[d];
-    const int width = j >= 0 && tree.joint_type(j) == JointType::kBall ? 3 : 1;
+    const int width = j >= 0 ? tree.dof_count_of(j) : 1;
     if (j >= 0 && tree.has_limits(j) && visit(j, d, c)) return true;
     c += width;
   }
@@ -275,7 +275,7 @@ class HierarchicalStep {
         const int d0 = tree_.dof_offset(j);
         if (j == 0 && tree_.floating_root())
           for (int d = 0; d < 3; ++d) put(ws_.dof_column[d], translation_column(g.kind, ws_.dof_axes[d], lin));
-        if (tree_.joint_type(j) == JointType::kPrismatic) {
+        if (!turns(tree_.joint_type(j))) {
           put(ws_.dof_column[d0], translation_column(g.kind, ws_.dof_axes[d0], lin));
           continue;
         }
@@ -437,8 +437,9 @@ class HierarchicalStep {
   // (block_limits() would change J).
   bool would_block(const double* params) const {
     return any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
-      if (tree_.joint_type(j) != JointType::kBall)
-        return one_dof_blocked(tree_.limits(j), params[d], ws_.step[d]) && ws_.jacobian.col(c).head(rows_).any();
+      if (is_one_dof(tree_.joint_type(j)))
+        return one_dof_blocked(tree_.joint_type(j), tree_.limits(j), params[d], ws_.step[d]) &&
+               ws_.jacobian.col(c).head(rows_).any();
       glm::dvec3 normals[2];
       return ball_params_blocked(tree_.limits(j), params + d, ws_.step.data() + d, normals) > 0;
     });
@@ -500,8 +501,9 @@ class HierarchicalStep {
     any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int) {
       const JointLimits& l = tree_.limits(j);
       const double* s = ws_.step.data() + d;
-      if (tree_.joint_type(j) != JointType::kBall) {
-        const double to = s[0] > 0.0 ? l.hinge_max - params[d] : l.hinge_min - params[d];
+      if (is_one_dof(tree_.joint_type(j))) {
+        const ParamRange range = param_range(tree_.joint_type(j), l);
+        const double to = s[0] > 0.0 ? range.max - params[d] : range.min - params[d];
         if (s[0] != 0.0 && std::abs(s[0]) > std::abs(to)) fraction = std::min(fraction, std::max(to / s[0], 0.0));
         return false;
       }
@@ -546,8 +548,9 @@ class HierarchicalStep {
   bool block_limits(const double* params) {
     bool changed = false;
     any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
-      if (tree_.joint_type(j) != JointType::kBall) {
-        if (one_dof_blocked(tree_.limits(j), params[d], ws_.step[d]) && ws_.jacobian.col(c).head(rows_).any()) {
+      if (is_one_dof(tree_.joint_type(j))) {
+        if (one_dof_blocked(tree_.joint_type(j), tree_.limits(j), params[d], ws_.step[d]) &&
+            ws_.jacobian.col(c).head(rows_).any()) {
           ws_.jacobian.col(c).head(rows_).setZero();
           changed = true;
         }
@@ -583,7 +586,7 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
   for (int d = 0; d < n; ++d) trial[d] = params[d] + step[d];
   for (int j = 0; j < tree.joint_count(); ++j) {
     const int d = tree.dof_offset(j);
-    if (tree.joint_type(j) == JointType::kBall) {
+    if (!is_one_dof(tree.joint_type(j))) {
       glm::dvec3 s(step[d], step[d + 1], step[d + 2]);
       const double len = glm::length(s);
       if (o.max_step_angle > 0.0 && len > o.max_step_angle) s *= o.max_step_angle / len;
@@ -591,19 +594,18 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
       trial[d] = r.x;
       trial[d + 1] = r.y;
       trial[d + 2] = r.z;
-    } else if (tree.joint_type(j) == JointType::kHinge && o.max_step_angle > 0.0) {
+    } else if (turns(tree.joint_type(j)) && o.max_step_angle > 0.0) {  // a slide's metres: no cap
       trial[d] = params[d] + std::clamp(step[d], -o.max_step_angle, o.max_step_angle);
     }
   }
   project_tree_to_limits(tree, trial);
 }
 
-// True when an active joint rests on a bound of its limits (a hinge or slide on hinge_min/max, a
-// ball on its cone or a twist bound).
+// True when an active joint rests on a bound of its limits (a hinge or slide on its range, a ball
+// on its cone or a twist bound).
 bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const double* params) {
   return any_limited_joint(tree, ws, columns, [&](int j, int d, int) {
-    if (tree.joint_type(j) == JointType::kBall) return ball_params_on_boundary(tree.limits(j), params + d);
-    return one_dof_blocked(tree.limits(j), params[d], -1.0) || one_dof_blocked(tree.limits(j), params[d], 1.0);
+    return joint_params_at_limit(tree.joint_type(j), tree.limits(j), params + d);
   });
 }
 
