@@ -72,10 +72,10 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
     }
   } else if (!traits.turns) {  // a slide: its range is required (the reach bounds need it)
     l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
-    if (!l.has_hinge_limit || !within_magnitude(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
-      return fail("limits.hinge_min",
-                  Message::format("a prismatic joint needs has_hinge_limit with finite hinge_min <= "
-                                  "hinge_max (its slide range, m)"));
+    if (!l.has_slide_limit || !within_magnitude(glm::dvec3(l.slide_min, l.slide_max, 0.0)) || l.slide_min > l.slide_max)
+      return fail("limits.slide_min",
+                  Message::format("a prismatic joint needs has_slide_limit with finite slide_min <= "
+                                  "slide_max (its slide range, m)"));
   } else {
     l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
     if (l.has_hinge_limit) {

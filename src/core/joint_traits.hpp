@@ -21,18 +21,23 @@ enum class JointType : uint8_t {
   kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)
   kHinge = 1,  // 1 rotational DOF about hinge_axis, param: angle (radians)
   // 1 translational DOF: the joint slides along hinge_axis (joint space) by its param (m), moving
-  // every later joint and the tip; its frame does not turn. Needs a slide range: has_hinge_limit
-  // with hinge_min / hinge_max in metres (the reach bounds need it). Pursued by the Jacobian
+  // every later joint and the tip; its frame does not turn. Needs a slide range: has_slide_limit
+  // with slide_min / slide_max in metres (the reach bounds need it). Pursued by the Jacobian
   // solvers and BFGS; CCD, FABRIK and two-bone turn joints only and reject such chains.
   kPrismatic = 2,
 };
 
 // Limits are expressed in joint space, relative to the joint's rest orientation.
 struct JointLimits {
-  // Hinge: angle range in radians; prismatic: slide range in metres (required). Ignored for ball joints.
+  // Hinge: angle range in radians. Ignored for other joints.
   bool has_hinge_limit = false;
   double hinge_min = -3.14159265358979323846;
   double hinge_max = 3.14159265358979323846;
+  // Prismatic: slide range in metres (required: has_slide_limit, slide_min <= slide_max). Ignored
+  // for other joints.
+  bool has_slide_limit = false;
+  double slide_min = 0.0;
+  double slide_max = 0.0;
   // Ball: swing of twist_axis away from its rest direction is at most cone_angle (radians, [0, pi]).
   bool has_cone_limit = false;
   double cone_angle = 3.14159265358979323846;
@@ -60,6 +65,10 @@ constexpr JointTraits kJointTraits[] = {
     {"prismatic", 1, false, true, false, "m"},
 };
 constexpr int kJointTypeCount = static_cast<int>(sizeof(kJointTraits) / sizeof(kJointTraits[0]));
+static_assert(kJointTypeCount == 3 && kJointTraits[static_cast<int>(JointType::kBall)].dof_count == 3 &&
+                  !kJointTraits[static_cast<int>(JointType::kPrismatic)].turns &&
+                  kJointTraits[static_cast<int>(JointType::kHinge)].uses_axis,
+              "kJointTraits rows are in JointType order");
 
 constexpr bool is_known_joint_type(JointType type) { return static_cast<int>(type) < kJointTypeCount; }
 constexpr const JointTraits& joint_traits(JointType type) { return kJointTraits[static_cast<int>(type)]; }
@@ -75,7 +84,10 @@ struct ParamRange {
   double min = 0.0;
   double max = 0.0;
 };
-inline ParamRange param_range(JointType, const JointLimits& l) { return {l.has_hinge_limit, l.hinge_min, l.hinge_max}; }
+inline ParamRange param_range(JointType type, const JointLimits& l) {
+  if (type == JointType::kPrismatic) return {l.has_slide_limit, l.slide_min, l.slide_max};
+  return {l.has_hinge_limit, l.hinge_min, l.hinge_max};
+}
 
 // True when the joint has any limit its type uses (a range; a cone or a twist range).
 inline bool has_joint_limits(JointType type, const JointLimits& l) {

@@ -92,9 +92,9 @@ Chain telescope() {
   slide.type = JointType::kPrismatic;
   slide.hinge_axis = glm::dvec3(0, 1, 0);
   slide.offset_translation = glm::dvec3(0, 0.5, 0);
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.8;
+  slide.limits.has_slide_limit = true;
+  slide.limits.slide_min = 0.0;
+  slide.limits.slide_max = 0.8;
   b.add_joint(slide);
   JointDesc elbow;
   elbow.type = JointType::kHinge;

@@ -19,9 +19,9 @@ Chain telescope_arm() {
   slide.type = JointType::kPrismatic;
   slide.hinge_axis = glm::dvec3(0, 1, 0);
   slide.offset_translation = glm::dvec3(0, 0.5, 0);
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.8;
+  slide.limits.has_slide_limit = true;
+  slide.limits.slide_min = 0.0;
+  slide.limits.slide_max = 0.8;
   b.add_joint(slide);
   JointDesc elbow;
   elbow.type = JointType::kHinge;
@@ -140,6 +140,23 @@ TEST(Prismatic, NeedsASlideRange) {
   const Message m = b.build(c).message;
   EXPECT_NE(std::string(m.c_str()).find("prismatic"), std::string::npos) << m.c_str();
   EXPECT_FALSE(c.valid());
+  // The range is the slide's own (metres), not the hinge's: a hinge range does not count for it,
+  // and the error names the field to set.
+  slide.limits.has_hinge_limit = true;
+  slide.limits.hinge_min = 0.0;
+  slide.limits.hinge_max = 0.5;
+  b.clear();
+  b.add_joint(slide).set_tip_offset(glm::dvec3(0, 1, 0));
+  const BuildError e = b.build(c);
+  EXPECT_STREQ(e.field, "limits.slide_min") << e.message.c_str();
+  EXPECT_FALSE(c.valid());
+  slide.limits.has_slide_limit = true;
+  slide.limits.slide_min = 0.0;
+  slide.limits.slide_max = 0.5;
+  b.clear();
+  b.add_joint(slide).set_tip_offset(glm::dvec3(0, 1, 0));
+  ASSERT_TRUE(b.build(c).ok());
+  EXPECT_DOUBLE_EQ(c.bone_length(0), 1.5);  // the offset to the tip plus the longest slide
 }
 
 TEST(Prismatic, GeometricSolversRejectIt) {

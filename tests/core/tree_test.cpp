@@ -73,9 +73,9 @@ TEST(Tree, PrismaticJointShiftsItsChildrenAndEffectors) {
   slide.type = JointType::kPrismatic;
   slide.offset_in_parent = {0, 1, 0};
   slide.axis = {0, 2, 0};  // normalised by the build
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.5;
+  slide.limits.has_slide_limit = true;
+  slide.limits.slide_min = 0.0;
+  slide.limits.slide_max = 0.5;
   b.add_joint(slide);
   b.add_joint(test::hinge(1, {0, 1, 0}, {0, 0, 1}, -90, 90));
   b.add_effector({2, {0, 1, 0}, {1, 0, 0, 0}});
