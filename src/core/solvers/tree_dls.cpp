@@ -23,6 +23,7 @@
 #include <cmath>
 
 #include "core/kinematics.hpp"
+#include "core/math/linalg.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_common.hpp"
@@ -159,57 +160,16 @@ bool any_limited_joint(const Tree& tree, const TreeWorkspace& ws, int columns, V
   return false;
 }
 
-// Small dense kernels on column-major blocks (pointer + leading dimension), column-oriented so the
-// inner loops run down contiguous columns. The levels' matrices are 3 rows per goal (18 x 18 for
-// six 6-D goals): too small for Eigen's blocked products, whose packing costs more than the
-// arithmetic here.
-struct Cols {
-  double* p;
-  Eigen::Index ld;
-  double& operator()(int i, int j) const { return p[i + j * ld]; }
-  double* col(int j) const { return p + j * ld; }
-};
-template <class Block>
-Cols cols_of(Block&& b) {
-  return Cols{b.data(), b.outerStride()};
-}
-
-using Seg = Eigen::Map<Eigen::VectorXd>;
-using ConstSeg = Eigen::Map<const Eigen::VectorXd>;
-
-// A = L L^T in place (lower triangle; the upper is not read), right-looking; pivots below
-// min_pivot2 are raised to it (linalg::cholesky_factor's rule).
-void cholesky_lower(Cols a, int n, double min_pivot2) {
-  for (int j = 0; j < n; ++j) {
-    double* cj = a.col(j);
-    const double d = std::sqrt(std::max(cj[j], min_pivot2));
-    cj[j] = d;
-    Seg(cj + j + 1, n - j - 1) *= 1.0 / d;
-    for (int k = j + 1; k < n; ++k) Seg(a.col(k) + k, n - k) -= cj[k] * ConstSeg(cj + k, n - k);
-  }
-}
-// x <- L^-1 x (forward substitution) for a vector with stride 1.
-void lower_solve(Cols l, int n, double* x) {
-  for (int k = 0; k < n; ++k) {
-    const double* ck = l.col(k);
-    const double v = (x[k] /= ck[k]);
-    Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
-  }
-}
-// x <- L^-T x (back substitution).
-void lower_transpose_solve(Cols l, int n, double* x) {
-  for (int k = n - 1; k >= 0; --k) {
-    const double* ck = l.col(k);
-    x[k] = (x[k] - ConstSeg(ck + k + 1, n - k - 1).dot(ConstSeg(x + k + 1, n - k - 1))) / ck[k];
-  }
-}
-// S -= W^T W on S's lower triangle (W: rows x cols, S: cols x cols).
-void subtract_gram_of_columns(Cols w, int rows, int cols, Cols s) {
-  for (int j = 0; j < cols; ++j) {
-    const ConstSeg wj(w.col(j), rows);
-    for (int i = j; i < cols; ++i) s(i, j) -= ConstSeg(w.col(i), rows).dot(wj);
-  }
-}
+// The column-block kernels (Cols, the right-looking Cholesky, the triangular solves, the Gram
+// update) are core/math/linalg.hpp's.
+using linalg::Cols;
+using linalg::cols_of;
+using linalg::cholesky_lower;
+using linalg::lower_solve;
+using linalg::lower_transpose_solve;
+using linalg::subtract_gram_of_columns;
+using Seg = linalg::Seg;
+using ConstSeg = linalg::ConstSeg;
 
 class HierarchicalStep {
  public:
