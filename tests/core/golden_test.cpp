@@ -26,6 +26,7 @@
 #include "core/tree_solve.hpp"
 #include "humanoid.hpp"
 #include "solver_test_util.hpp"
+#include "telescope_arm.hpp"
 #include "tree_test_util.hpp"
 
 namespace ikchain {
@@ -214,33 +215,7 @@ struct ChainProblem {
   SolverOptions options;
 };
 
-// A ball shoulder, a telescoping upper arm (slides along +Y, 0..0.8 m), a hinge elbow, a ball
-// wrist; 0.5 m bones (as prismatic_test.cpp's).
-Chain telescope_arm() {
-  ChainBuilder b;
-  JointDesc shoulder;
-  b.add_joint(shoulder);
-  JointDesc slide;
-  slide.type = JointType::kPrismatic;
-  slide.hinge_axis = glm::dvec3(0, 1, 0);
-  slide.offset_translation = glm::dvec3(0, 0.5, 0);
-  slide.limits.has_slide_limit = true;
-  slide.limits.slide_min = 0.0;
-  slide.limits.slide_max = 0.8;
-  b.add_joint(slide);
-  JointDesc elbow;
-  elbow.type = JointType::kHinge;
-  elbow.hinge_axis = glm::dvec3(1, 0, 0);
-  elbow.offset_translation = glm::dvec3(0, 0.5, 0);
-  b.add_joint(elbow);
-  JointDesc wrist;
-  wrist.offset_translation = glm::dvec3(0, 0.5, 0);
-  b.add_joint(wrist);
-  b.set_tip_offset(glm::dvec3(0, 0.3, 0));
-  Chain c;
-  EXPECT_TRUE(b.build(c).ok());
-  return c;
-}
+using test::telescope_arm;
 
 glm::dquat tip_orientation_at(const Chain& chain, const Eigen::VectorXd& params) {
   Workspace ws(chain, 1);
