@@ -46,9 +46,9 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   gradient_kept.setZero(dofs);
   params_kept.setZero(dofs);
   const int points = joints + tree.effector_count();
-  points_a.assign(points, glm::dvec3(0.0));
-  points_b.assign(points, glm::dvec3(0.0));
-  points_c.assign(points, glm::dvec3(0.0));
+  points_current.assign(points, glm::dvec3(0.0));
+  points_forward.assign(points, glm::dvec3(0.0));
+  points_backward.assign(points, glm::dvec3(0.0));
   point_weight.assign(points, 0.0);
   for (int j = 0; j < joints; ++j)
     for (int d = 0; d < tree.dof_count_of(j); ++d) dof_joint[tree.dof_offset(j) + d] = j;
@@ -56,7 +56,7 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
 
 bool TreeWorkspace::fits(const Tree& tree, int goal_count) const {
   return joints == tree.joint_count() && dofs == tree.dof_count() && goal_count <= max_goals &&
-         points_a.size() == static_cast<size_t>(joints + tree.effector_count());
+         points_current.size() == static_cast<size_t>(joints + tree.effector_count());
 }
 
 void tree_forward_kinematics(const Tree& tree, const double* params, TreeWorkspace& ws) {
