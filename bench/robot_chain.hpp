@@ -135,7 +135,11 @@ inline ikchain::Message build_ikchain(const RobotDescription& robot, ikchain::Ch
     j.offset_translation = rj.origin_translation;
     j.rest_rotation = rj.origin_rotation;
     j.hinge_axis = rj.axis;
-    if (rj.limited()) {
+    if (rj.limited() && rj.prismatic()) {
+      j.limits.has_slide_limit = true;
+      j.limits.slide_min = rj.lower;
+      j.limits.slide_max = rj.upper;
+    } else if (rj.limited()) {
       j.limits.has_hinge_limit = true;
       j.limits.hinge_min = rj.lower;
       j.limits.hinge_max = rj.upper;

@@ -17,9 +17,7 @@ using so3::scaled_length;
 // the offset to it, plus a prismatic joint's longest slide. build() and set_offsets() both use this
 // one definition, so reach bounds (unreachable verdicts, skipped restarts) cannot disagree.
 double bone_reach(JointType type, const JointLimits& limits, const glm::dvec3& offset_to_next) {
-  double length = glm::length(offset_to_next);
-  if (type == JointType::kPrismatic) length += std::max(std::abs(limits.hinge_min), std::abs(limits.hinge_max));
-  return length;
+  return glm::length(offset_to_next) + longest_slide(type, limits);
 }
 
 }  // namespace
@@ -41,36 +39,21 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
   const double rest_len = scaled_length(j.rest_rotation);
   if (!std::isfinite(rest_len) || rest_len < 1e-9)
     return fail("rest_rotation", Message::format("rest_rotation must be a finite non-zero quaternion"));
+  if (!is_known_joint_type(j.type)) return fail("type", Message::format("unknown joint type"));
+  const JointTraits& traits = joint_traits(j.type);
   JointLimits l = j.limits;
   // The axis a joint type does not use is stored as its default, so the chain holds no NaN.
   glm::dvec3 axis(0.0, 0.0, 1.0);
-  if (j.type == JointType::kPrismatic) {
+  if (traits.uses_axis) {
     axis = j.hinge_axis;
-    l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
     const double len = scaled_length(axis);
     if (!std::isfinite(len) || len < 1e-9)
-      return fail(axis_name,
-                  Message::format("%s (the slide axis) must be a finite non-zero vector", axis_name));
+      return fail(axis_name, traits.turns ? Message::format("%s must be a finite non-zero vector", axis_name)
+                                          : Message::format("%s (the slide axis) must be a finite non-zero vector",
+                                                            axis_name));
     axis /= len;
-    if (!l.has_hinge_limit || !within_magnitude(glm::dvec3(l.hinge_min, l.hinge_max, 0.0)) || l.hinge_min > l.hinge_max)
-      return fail("limits.hinge_min",
-                  Message::format("a prismatic joint needs has_hinge_limit with finite hinge_min <= "
-                                  "hinge_max (its slide range, m)"));
-  } else if (j.type == JointType::kHinge) {
-    axis = j.hinge_axis;
-    l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
-    const double len = scaled_length(axis);
-    if (!std::isfinite(len) || len < 1e-9)
-      return fail(axis_name, Message::format("%s must be a finite non-zero vector", axis_name));
-    axis /= len;
-    if (l.has_hinge_limit) {
-      if (!std::isfinite(l.hinge_min) || !std::isfinite(l.hinge_max))
-        return fail("limits.hinge_min", Message::format("hinge_min/hinge_max must be finite"));
-      if (l.hinge_min > l.hinge_max)
-        return fail("limits.hinge_min",
-                    Message::format("hinge_min (%g) > hinge_max (%g)", l.hinge_min, l.hinge_max));
-    }
-  } else if (j.type == JointType::kBall) {
+  }
+  if (traits.cone_twist_limits) {
     const double len = scaled_length(l.twist_axis);
     if (!std::isfinite(len) || len < 1e-9)
       return fail("limits.twist_axis",
@@ -87,8 +70,21 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
         return fail("limits.twist_min",
                     Message::format("twist_min (%g) > twist_max (%g)", l.twist_min, l.twist_max));
     }
+  } else if (!traits.turns) {  // a slide: its range is required (the reach bounds need it)
+    l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
+    if (!l.has_slide_limit || !within_magnitude(glm::dvec3(l.slide_min, l.slide_max, 0.0)) || l.slide_min > l.slide_max)
+      return fail("limits.slide_min",
+                  Message::format("a prismatic joint needs has_slide_limit with finite slide_min <= "
+                                  "slide_max (its slide range, m)"));
   } else {
-    return fail("type", Message::format("unknown joint type"));
+    l.twist_axis = glm::dvec3(0.0, 1.0, 0.0);
+    if (l.has_hinge_limit) {
+      if (!std::isfinite(l.hinge_min) || !std::isfinite(l.hinge_max))
+        return fail("limits.hinge_min", Message::format("hinge_min/hinge_max must be finite"));
+      if (l.hinge_min > l.hinge_max)
+        return fail("limits.hinge_min",
+                    Message::format("hinge_min (%g) > hinge_max (%g)", l.hinge_min, l.hinge_max));
+    }
   }
   out = j;
   out.rest_rotation = glm::normalize(j.rest_rotation / rest_len);
@@ -124,11 +120,7 @@ void ChainBuilder::clear() {
   tip_rotation_ = glm::dquat(1.0, 0.0, 0.0, 0.0);
 }
 
-bool Chain::has_limits(int i) const {
-  const JointLimits& l = limits_[i];
-  return joint_type(i) != JointType::kBall ? l.has_hinge_limit
-                                            : (l.has_cone_limit || l.has_twist_limit);
-}
+bool Chain::has_limits(int i) const { return has_joint_limits(joint_type(i), limits_[i]); }
 
 BuildError ChainBuilder::build(Chain& out) const {
   out = Chain();
@@ -166,7 +158,7 @@ BuildError ChainBuilder::build(Chain& out) const {
     Chain::JointRecord& rec = c.joints_[i];
     rec.type = static_cast<uint8_t>(j.type);
     rec.dof_offset = dofs;
-    dofs += j.type == JointType::kBall ? 3 : 1;
+    dofs += joint_dof_count(j.type);
     rec.offset_translation = j.offset_translation;
     c.rest_rotations_[i] = j.rest_rotation;
     const glm::dquat& r = c.rest_rotations_[i];
@@ -186,7 +178,7 @@ BuildError ChainBuilder::build(Chain& out) const {
   for (int i = 0; i < n; ++i) {
     const glm::dvec3& next = (i + 1 < n) ? c.joints_[i + 1].offset_translation : tip_offset_;
     c.bone_lengths_[i] = bone_reach(c.joint_type(i), c.limits_[i], next);
-    if (c.joint_type(i) == JointType::kPrismatic && c.first_prismatic_ < 0) c.first_prismatic_ = i;
+    if (!turns(c.joint_type(i)) && c.first_prismatic_ < 0) c.first_prismatic_ = i;
     total += c.bone_lengths_[i];
   }
   if (!(total > 1e-9))

@@ -20,6 +20,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "core/joint_traits.hpp"
 #include "core/message.hpp"
 
 namespace ikchain {
@@ -36,33 +37,6 @@ constexpr double kMaxWeight = 1e30;
 inline bool within_magnitude(const glm::dvec3& v) {
   return std::abs(v.x) <= kMaxMagnitude && std::abs(v.y) <= kMaxMagnitude && std::abs(v.z) <= kMaxMagnitude;
 }
-
-enum class JointType : uint8_t {
-  kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)
-  kHinge = 1,  // 1 rotational DOF about hinge_axis, param: angle (radians)
-  // 1 translational DOF: the joint slides along hinge_axis (joint space) by its param (m), moving
-  // every later joint and the tip; its frame does not turn. Needs a slide range: has_hinge_limit
-  // with hinge_min / hinge_max in metres (the reach bounds need it). Pursued by the Jacobian
-  // solvers and BFGS; CCD, FABRIK and two-bone turn joints only and reject such chains.
-  kPrismatic = 2,
-};
-
-// Limits are expressed in joint space, relative to the joint's rest orientation.
-struct JointLimits {
-  // Hinge: angle range in radians; prismatic: slide range in metres (required). Ignored for ball joints.
-  bool has_hinge_limit = false;
-  double hinge_min = -3.14159265358979323846;
-  double hinge_max = 3.14159265358979323846;
-  // Ball: swing of twist_axis away from its rest direction is at most cone_angle (radians, [0, pi]).
-  bool has_cone_limit = false;
-  double cone_angle = 3.14159265358979323846;
-  // Ball: rotation about twist_axis in [twist_min, twist_max] (radians, within [-pi, pi]).
-  bool has_twist_limit = false;
-  double twist_min = -3.14159265358979323846;
-  double twist_max = 3.14159265358979323846;
-  // Ball: the bone's own axis in joint space (Godot bones point along +Y). Unit length after build.
-  glm::dvec3 twist_axis{0.0, 1.0, 0.0};
-};
 
 struct JointDesc {
   JointType type = JointType::kBall;
@@ -122,7 +96,7 @@ class Chain {
 
   JointType joint_type(int i) const { return static_cast<JointType>(joints_[i].type); }
   int dof_offset(int i) const { return joints_[i].dof_offset; }  // first param index of joint i
-  int dof_count_of(int i) const { return joint_type(i) == JointType::kBall ? 3 : 1; }
+  int dof_count_of(int i) const { return joint_dof_count(joint_type(i)); }
   const glm::dvec3& offset_translation(int i) const { return joints_[i].offset_translation; }
   const glm::dquat& rest_rotation(int i) const { return rest_rotations_[i]; }
   // True when rest_rotation(i) is exactly the identity (FK skips the product).

@@ -75,7 +75,7 @@ void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws) {
   for (int i = 0; i < n; ++i) {
     const int o = chain.dof_offset(i);
     const glm::dquat& pre = ws.joint_pre_rotations[i];
-    if (chain.joint_type(i) != JointType::kBall) {  // hinge: rotation axis, prismatic: slide direction
+    if (is_one_dof(chain.joint_type(i))) {  // hinge: rotation axis, prismatic: slide direction
       ws.dof_axes[o] = pre * chain.hinge_axis(i);
     } else {
       const glm::dmat3 jl = so3::left_jacobian(glm::dvec3(params[o], params[o + 1], params[o + 2]));
@@ -184,7 +184,7 @@ void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspac
       const int cnt = chain.dof_count_of(j);
       for (int d = 0; d < cnt; ++d) {
         glm::dvec3 col(0.0);
-        if (j < k && chain.joint_type(j) == JointType::kPrismatic) {
+        if (j < k && !turns(chain.joint_type(j))) {
           col = translation_column(g.kind, ws.dof_axes[o], lin);
         } else if (j < k) {
           col = rotation_column(g.kind, ws.dof_axes[o + d], point - ws.joint_origins[j], lin);
@@ -207,12 +207,12 @@ void apply_step(const Chain& chain, const double* step, double max_step_angle, d
   const int n = chain.joint_count();
   for (int i = 0; i < n; ++i) {
     const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) == JointType::kHinge) {
+    const JointType type = chain.joint_type(i);
+    if (is_one_dof(type)) {
       double d = step[o];
-      if (max_step_angle > 0.0) d = std::clamp(d, -max_step_angle, max_step_angle);
+      // A slide's metres have no angle to cap.
+      if (turns(type) && max_step_angle > 0.0) d = std::clamp(d, -max_step_angle, max_step_angle);
       params[o] += d;
-    } else if (chain.joint_type(i) == JointType::kPrismatic) {
-      params[o] += step[o];  // metres: no angle to cap
     } else {
       glm::dvec3 d(step[o], step[o + 1], step[o + 2]);
       const double len = glm::length(d);
@@ -255,8 +255,9 @@ bool project_ball(const JointLimits& l, glm::dquat& q) {
 }  // namespace
 
 void project_joint_params(JointType type, const JointLimits& l, double* p) {
-  if (type != JointType::kBall) {
-    if (l.has_hinge_limit) p[0] = std::clamp(p[0], l.hinge_min, l.hinge_max);
+  if (is_one_dof(type)) {
+    const ParamRange r = param_range(type, l);
+    if (r.limited) p[0] = std::clamp(p[0], r.min, r.max);
     return;
   }
   if (!l.has_cone_limit && !l.has_twist_limit) return;
@@ -327,8 +328,8 @@ bool ball_params_on_boundary(const JointLimits& limits, const double* p) {
 }
 
 bool joint_params_at_limit(JointType type, const JointLimits& limits, const double* p) {
-  if (type == JointType::kBall) return ball_params_on_boundary(limits, p);
-  return one_dof_blocked(limits, p[0], -1.0) || one_dof_blocked(limits, p[0], 1.0);
+  if (!is_one_dof(type)) return ball_params_on_boundary(limits, p);
+  return one_dof_blocked(type, limits, p[0], -1.0) || one_dof_blocked(type, limits, p[0], 1.0);
 }
 
 int joints_at_limit(const Chain& chain, const double* params) {
@@ -396,7 +397,10 @@ int ball_params_blocked(const JointLimits& l, const double* p, const double* dir
 }
 
 bool joint_within_limits(JointType type, const JointLimits& l, const double* p, double slack) {
-  if (type != JointType::kBall) return !l.has_hinge_limit || (p[0] >= l.hinge_min - slack && p[0] <= l.hinge_max + slack);
+  if (is_one_dof(type)) {
+    const ParamRange r = param_range(type, l);
+    return !r.limited || (p[0] >= r.min - slack && p[0] <= r.max + slack);
+  }
   if (!l.has_cone_limit && !l.has_twist_limit) return true;
   const glm::dquat q = so3::exp(glm::dvec3(p[0], p[1], p[2]));
   glm::dquat swing;

@@ -129,16 +129,26 @@ void apply_step(const Chain& chain, const double* step, double max_step_angle, d
 // chains and trees share. `p` points at the joint's own params (1 or 3).
 void project_joint_params(JointType type, const JointLimits& limits, double* p);
 bool joint_within_limits(JointType type, const JointLimits& limits, const double* p, double slack = 1e-9);
-// A limited 1-DOF joint (hinge, slide) at `value` resting on a bound (within 1e-12) that a change
-// with the sign of `direction` would push out.
-inline bool one_dof_blocked(const JointLimits& l, double value, double direction) {
-  if (!l.has_hinge_limit) return false;
+// A limited 1-DOF joint (hinge, slide: is_one_dof(type)) at `value` resting on a bound of its range
+// (param_range, within 1e-12) that a change with the sign of `direction` would push out.
+inline bool one_dof_blocked(JointType type, const JointLimits& l, double value, double direction) {
+  const ParamRange r = param_range(type, l);
+  if (!r.limited) return false;
   constexpr double kOnBound = 1e-12;
-  return (value <= l.hinge_min + kOnBound && direction < 0.0) || (value >= l.hinge_max - kOnBound && direction > 0.0);
+  return (value <= r.min + kOnBound && direction < 0.0) || (value >= r.max - kOnBound && direction > 0.0);
 }
 // ball_blocked and ball_on_boundary (below) for a ball joint's own params `p`.
 int ball_params_blocked(const JointLimits& limits, const double* p, const double* direction, glm::dvec3 normals[2]);
 bool ball_params_on_boundary(const JointLimits& limits, const double* p);
+// The one blocked test of every joint type, for its own params `p` and its entries of a step
+// `direction` (joint_dof_count(type) of each): 1 for a 1-DOF joint one_dof_blocked() freezes (its
+// DOF must not move), for a ball the number of outward normals ball_params_blocked() writes to
+// `normals` (those directions must not move); 0 when nothing blocks.
+inline int joint_params_blocked(JointType type, const JointLimits& limits, const double* p, const double* direction,
+                                glm::dvec3 normals[2]) {
+  if (is_one_dof(type)) return one_dof_blocked(type, limits, p[0], direction[0]) ? 1 : 0;
+  return ball_params_blocked(limits, p, direction, normals);
+}
 // True when a joint rests on one of its limits: a 1-DOF joint at a bound (one_dof_blocked's test,
 // either way), a ball on its cone or a twist bound (ball_params_on_boundary). `p`: its own params.
 bool joint_params_at_limit(JointType type, const JointLimits& limits, const double* p);
@@ -151,8 +161,8 @@ void project_joint_to_limits(const Chain& chain, int joint, double* params);
 // its angle by `direction` (its sign is what counts) would push it out: the active set of the
 // Jacobian solvers' limit-aware steps and of BFGS's projected steps (ball joints: ball_blocked).
 inline bool hinge_blocked(const Chain& chain, int joint, const double* params, double direction) {
-  if (chain.joint_type(joint) == JointType::kBall) return false;
-  return one_dof_blocked(chain.limits(joint), params[chain.dof_offset(joint)], direction);
+  if (!is_one_dof(chain.joint_type(joint))) return false;
+  return one_dof_blocked(chain.joint_type(joint), chain.limits(joint), params[chain.dof_offset(joint)], direction);
 }
 // The same active set for a ball joint's cone and twist limits. A limit the joint rests on (swing
 // angle at cone_angle, twist angle at a bound, within 1e-10 rad) blocks a step of the joint's

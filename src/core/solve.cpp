@@ -212,10 +212,10 @@ struct SplitMix64 {
 void random_pose(const Chain& chain, SplitMix64& rng, double* params) {
   for (int i = 0; i < chain.joint_count(); ++i) {
     const int o = chain.dof_offset(i);
-    if (chain.joint_type(i) != JointType::kBall) {  // prismatic joints always have a range
-      const JointLimits& l = chain.limits(i);
-      const double lo = l.has_hinge_limit ? l.hinge_min : -so3::kPi;
-      const double hi = l.has_hinge_limit ? l.hinge_max : so3::kPi;
+    if (is_one_dof(chain.joint_type(i))) {  // prismatic joints always have a range
+      const ParamRange range = param_range(chain.joint_type(i), chain.limits(i));
+      const double lo = range.limited ? range.min : -so3::kPi;
+      const double hi = range.limited ? range.max : so3::kPi;
       params[o] = lo + (hi - lo) * rng.uniform();
     } else {
       const double z = 2.0 * rng.uniform() - 1.0, phi = 2.0 * so3::kPi * rng.uniform();

@@ -9,24 +9,26 @@ namespace ikchain {
 
 namespace {
 
-TreeBuildError build_error(int joint, int effector, const char* field, const Message& message) {
+// The message is made from the data: "joint 3: " or "effector 2: " (when one is named) + reason.
+TreeBuildError build_error(int joint, int effector, const char* field, const Message& reason) {
   TreeBuildError e;
   e.joint = joint;
   e.effector = effector;
   e.field = field;
-  e.message = message;
+  e.reason = reason;
+  if (joint >= 0)
+    e.message = Message::format("joint %d: %s", joint, reason.c_str());
+  else if (effector >= 0)
+    e.message = Message::format("effector %d: %s", effector, reason.c_str());
+  else
+    e.message = reason;
   return e;
 }
-TreeBuildError joint_error(int joint, const char* field, const Message& message) {
-  return build_error(joint, -1, field, message);
+TreeBuildError joint_error(int joint, const char* field, const Message& reason) {
+  return build_error(joint, -1, field, reason);
 }
-TreeBuildError effector_error(int effector, const char* field, const Message& message) {
-  return build_error(-1, effector, field, message);
-}
-
-// The longest a joint's slide can add to the distance to its children (0 for turning joints).
-double longest_slide(JointType type, const JointLimits& l) {
-  return type == JointType::kPrismatic ? std::max(std::abs(l.hinge_min), std::abs(l.hinge_max)) : 0.0;
+TreeBuildError effector_error(int effector, const char* field, const Message& reason) {
+  return build_error(-1, effector, field, reason);
 }
 
 }  // namespace
@@ -63,10 +65,10 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
   int dofs = 0;
   if (floating_root_) {
     if (joints_[0].type != JointType::kBall || joints_[0].parent != -1)
-      return joint_error(0, "type", Message::format("joint 0: a floating root must be a ball joint with parent -1"));
+      return joint_error(0, "type", Message::format("a floating root must be a ball joint with parent -1"));
     if (!(translation_motion_cost_ > 0.0 && translation_motion_cost_ <= kMaxWeight))
       return joint_error(0, "translation_motion_cost",
-                         Message::format("floating root: translation_motion_cost must be in (0, %g], got %g",
+                         Message::format("the floating root's translation_motion_cost must be in (0, %g], got %g",
                                          kMaxWeight, translation_motion_cost_));
     dofs = 3;
   }
@@ -74,8 +76,8 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     const TreeJointDesc& d = joints_[i];
     if (d.parent < -1 || d.parent >= i)
       return joint_error(i, "parent",
-                         Message::format("joint %d: parent (%d) must be -1 or an earlier joint (< %d): parents "
-                                         "precede their children", i, d.parent, i));
+                         Message::format("parent (%d) must be -1 or an earlier joint (< %d): parents "
+                                         "precede their children", d.parent, i));
     JointDesc as_joint;
     as_joint.type = d.type;
     as_joint.offset_translation = d.offset_in_parent;
@@ -84,11 +86,10 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     as_joint.limits = d.limits;
     JointDesc normal;
     const BuildError error = normalize_joint(i, as_joint, normal, "offset_in_parent", "axis");
-    if (!error.ok()) return joint_error(i, error.field, error.message);
+    if (!error.ok()) return joint_error(i, error.field, error.reason);
     if (!(d.motion_cost > 0.0 && d.motion_cost <= kMaxWeight))
       return joint_error(i, "motion_cost",
-                         Message::format("joint %d: motion_cost must be in (0, %g], got %g", i, kMaxWeight,
-                                         d.motion_cost));
+                         Message::format("motion_cost must be in (0, %g], got %g", kMaxWeight, d.motion_cost));
     Tree::JointRecord& r = t.joints_[i];
     r.parent = d.parent;
     r.type = normal.type;
@@ -97,10 +98,9 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     r.axis = normal.hinge_axis;
     r.limits = normal.limits;
     r.motion_cost = d.motion_cost;
-    r.has_limits = d.type == JointType::kBall ? (r.limits.has_cone_limit || r.limits.has_twist_limit)
-                                              : r.limits.has_hinge_limit;
+    r.has_limits = has_joint_limits(d.type, r.limits);
     r.dof_offset = dofs;
-    dofs += d.type == JointType::kBall ? 3 : 1;
+    dofs += joint_dof_count(d.type);
   }
   t.dof_count_ = dofs;
   t.floating_root_ = floating_root_;
@@ -115,15 +115,15 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     const TreeEffectorDesc& d = effectors_[e];
     if (d.joint < 0 || d.joint >= n)
       return effector_error(e, "joint",
-                            Message::format("effector %d: joint (%d) must be in [0, %d)", e, d.joint, n));
+                            Message::format("joint (%d) must be in [0, %d)", d.joint, n));
     if (!within_magnitude(d.offset))
       return effector_error(e, "offset",
-                            Message::format("effector %d: offset (%g, %g, %g) must be finite, each component "
-                                            "within +-%g m", e, d.offset.x, d.offset.y, d.offset.z, kMaxMagnitude));
+                            Message::format("offset (%g, %g, %g) must be finite, each component "
+                                            "within +-%g m", d.offset.x, d.offset.y, d.offset.z, kMaxMagnitude));
     const double len = so3::scaled_length(d.rotation);
     if (!std::isfinite(len) || len < 1e-9)
       return effector_error(e, "rotation",
-                            Message::format("effector %d: rotation must be a finite non-zero quaternion", e));
+                            Message::format("rotation must be a finite non-zero quaternion"));
     TreeEffectorDesc& stored = t.effectors_[e];
     stored = d;
     stored.rotation = glm::normalize(d.rotation / len);

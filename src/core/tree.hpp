@@ -50,12 +50,14 @@ struct TreeEffectorDesc {
   glm::dquat rotation{1.0, 0.0, 0.0, 0.0};   // orientation relative to that frame
 };
 
-// A build error as data: which joint or effector, which field, and a message saying why.
+// A build error as data: which joint or effector, which field, and why (as chain.hpp's BuildError),
+// so a caller that knows a joint by another name (a bone) maps `joint` and shows `reason`.
 struct TreeBuildError {
   int joint = -1;            // the offending joint, or -1
   int effector = -1;         // the offending effector, or -1
   const char* field = "";    // "parent", "offset_in_parent", "limits.cone_angle", ...
-  Message message;           // "joint 3: parent (5) must be < 3 (parents precede children)"
+  Message message;           // "joint 3: parent (5) must be -1 or an earlier joint (< 3): ..."
+  Message reason;            // the same without the joint or effector: "parent (5) must be -1 or ..."
   bool ok() const { return message.empty(); }
 };
 
@@ -98,7 +100,7 @@ class Tree {
   JointType joint_type(int i) const { return joints_[i].type; }
   int dof_offset(int i) const { return joints_[i].dof_offset; }
   // Rotation (or slide) params of joint i: 3 for a ball, 1 for a hinge or slide.
-  int dof_count_of(int i) const { return joints_[i].type == JointType::kBall ? 3 : 1; }
+  int dof_count_of(int i) const { return joint_dof_count(joints_[i].type); }
   const glm::dvec3& offset_in_parent(int i) const { return joints_[i].offset_in_parent; }
   const glm::dquat& rest_rotation(int i) const { return joints_[i].rest_rotation; }
   const glm::dvec3& axis(int i) const { return joints_[i].axis; }

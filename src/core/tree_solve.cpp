@@ -46,9 +46,9 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   gradient_kept.setZero(dofs);
   params_kept.setZero(dofs);
   const int points = joints + tree.effector_count();
-  points_a.assign(points, glm::dvec3(0.0));
-  points_b.assign(points, glm::dvec3(0.0));
-  points_c.assign(points, glm::dvec3(0.0));
+  points_current.assign(points, glm::dvec3(0.0));
+  points_forward.assign(points, glm::dvec3(0.0));
+  points_backward.assign(points, glm::dvec3(0.0));
   point_weight.assign(points, 0.0);
   for (int j = 0; j < joints; ++j)
     for (int d = 0; d < tree.dof_count_of(j); ++d) dof_joint[tree.dof_offset(j) + d] = j;
@@ -56,7 +56,7 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
 
 bool TreeWorkspace::fits(const Tree& tree, int goal_count) const {
   return joints == tree.joint_count() && dofs == tree.dof_count() && goal_count <= max_goals &&
-         points_a.size() == static_cast<size_t>(joints + tree.effector_count());
+         points_current.size() == static_cast<size_t>(joints + tree.effector_count());
 }
 
 void tree_forward_kinematics(const Tree& tree, const double* params, TreeWorkspace& ws) {
@@ -69,12 +69,10 @@ void tree_forward_kinematics(const Tree& tree, const double* params, TreeWorkspa
     const glm::dquat pre = parent_q * tree.rest_rotation(i);
     const double* q = params + tree.dof_offset(i);
     glm::dquat orientation = pre;
-    switch (tree.joint_type(i)) {
-      case JointType::kBall: orientation = pre * so3::exp(glm::dvec3(q[0], q[1], q[2])); break;
-      case JointType::kHinge: orientation = pre * glm::angleAxis(q[0], tree.axis(i)); break;
-      // The slide shifts this joint's frame, so its children and effectors (tree.hpp).
-      case JointType::kPrismatic: origin += pre * (tree.axis(i) * q[0]); break;
-    }
+    if (turns(tree.joint_type(i)))
+      orientation = pre * joint_rotation(tree.joint_type(i), tree.axis(i), q);
+    else  // the slide shifts this joint's frame, so its children and effectors (tree.hpp)
+      origin += pre * (tree.axis(i) * q[0]);
     ws.joint_origins[i] = origin;
     ws.joint_pre_rotations[i] = pre;
     ws.joint_orientations[i] = orientation;
@@ -113,7 +111,7 @@ void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws) {
   for (int i = 0; i < tree.joint_count(); ++i) {
     const int o = tree.dof_offset(i);
     const glm::dquat& pre = ws.joint_pre_rotations[i];
-    if (tree.joint_type(i) != JointType::kBall) {
+    if (is_one_dof(tree.joint_type(i))) {
       ws.dof_axes[o] = pre * tree.axis(i);
     } else {
       const glm::dmat3 jl = so3::left_jacobian(glm::dvec3(params[o], params[o + 1], params[o + 2]));
@@ -141,7 +139,7 @@ glm::dvec3 tree_jacobian_column(const Tree& tree, const TreeWorkspace& ws, const
   const bool root_translation = tree.floating_root() && dof < 3;
   const int j = root_translation ? 0 : ws.dof_joint[dof];
   if (!tree.supports(g.effector, j)) return glm::dvec3(0.0);
-  if (root_translation || tree.joint_type(j) == JointType::kPrismatic)
+  if (root_translation || !turns(tree.joint_type(j)))
     return translation_column(g.kind, ws.dof_axes[dof], lin);
   return rotation_column(g.kind, ws.dof_axes[dof], lin.point - ws.joint_origins[j], lin);
 }
@@ -210,7 +208,7 @@ Message validate_tree_inputs(SolverKind kind, const Tree& tree, const TreeProble
     return Message::format("solver %s does not solve trees; use %s", to_string(kind), to_string(SolverKind::kDLS));
   if (!info.prismatic_joints)
     for (int j = 0; j < tree.joint_count(); ++j)
-      if (tree.joint_type(j) == JointType::kPrismatic)
+      if (!turns(tree.joint_type(j)))
         return Message::format("%s turns joints only; joint %d is prismatic: use dls or bfgs", info.id, j);
   Message m = options.validate();
   if (!m.empty()) return m;

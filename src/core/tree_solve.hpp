@@ -100,7 +100,9 @@ struct TreeWorkspace {
   // The weighted-sum solvers (BFGS, CCD, FABRIK; solvers/tree_common.hpp).
   Eigen::MatrixXd dof_square;     // dofs x dofs: BFGS's inverse Hessian (lower triangle)
   Eigen::VectorXd gradient, gradient_trial, gradient_kept, params_kept;  // dofs
-  std::vector<glm::dvec3> points_a, points_b, points_c;  // joints + effectors: FABRIK's points
+  // FABRIK's points, joints + effectors: forward kinematics of the current params, the forward
+  // stage (toward the root) and the backward stage (from the root; what the joints are turned to).
+  std::vector<glm::dvec3> points_current, points_forward, points_backward;
   std::vector<double> point_weight;                      // joints + effectors
 };
 

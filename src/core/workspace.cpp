@@ -25,8 +25,8 @@ void Workspace::reset(const Chain& chain, int goals) {
                              &gradient_trial, &dof_vec_a, &dof_vec_b})
     v->setZero(dofs);
   softened_goals.assign(max_goals, Goal());
-  points_a.assign(joints + 1, glm::dvec3(0.0));
-  points_b.assign(joints + 1, glm::dvec3(0.0));
+  points_current.assign(joints + 1, glm::dvec3(0.0));
+  points_aim.assign(joints + 1, glm::dvec3(0.0));
 }
 
 bool Workspace::fits(const Chain& chain, int goal_count) const {

@@ -57,11 +57,18 @@ struct Workspace {
   Eigen::VectorXd step;
   Eigen::VectorXd gradient;
   Eigen::VectorXd gradient_trial;
+  // Two dofs-long scratch vectors, each solver's own role (so they are not named by one):
+  //   dof_vec_a: DLS the second-order correction; pinv t = V^T e (or W^T g); BFGS the gradient at
+  //              the line search's point; the escapes' null-space coefficients (stuck.hpp)
+  //   dof_vec_b: pinv y = V f t; BFGS the gradient with its frozen entries removed, then the
+  //              inverse Hessian update's scratch; the escapes' move (stuck.hpp)
   Eigen::VectorXd dof_vec_a;
   Eigen::VectorXd dof_vec_b;
-  // Points along the chain (FABRIK): joints + tip.
-  std::vector<glm::dvec3> points_a;
-  std::vector<glm::dvec3> points_b;
+  // Points along the chain, joints + tip: where forward kinematics of the current params puts them
+  // (FABRIK), and the points the chain is aimed at (geometric::aim_chain_at_points: FABRIK's
+  // forward-reaching stage, CCD's straight line toward an out-of-reach target).
+  std::vector<glm::dvec3> points_current;
+  std::vector<glm::dvec3> points_aim;
 };
 
 }  // namespace ikchain

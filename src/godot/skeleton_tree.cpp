@@ -148,7 +148,7 @@ Message SkeletonTree::build_tree() {
     // in that bone's IKChainJoint.
     if (error.joint >= 0 && error.joint < m)
       return Message::format("joint '%s' (%s): %s", bones_[size_t(error.joint)].name.c_str(), error.field,
-                             error.message.c_str());
+                             error.reason.c_str());
     return Message::format("cannot build the tree: %s", error.message.c_str());
   }
   return Message();

@@ -10,6 +10,7 @@
 #include "core/solvers/stuck.hpp"
 #include "humanoid.hpp"
 #include "solver_test_util.hpp"
+#include "telescope_arm.hpp"
 
 namespace ikchain {
 namespace {
@@ -84,29 +85,7 @@ TEST(Issue16, HugeTipRotationIsNormalisedNotZeroed) {
 
 // A ball shoulder, a slide along +Y (0..0.8 m) 0.5 m up, a hinge elbow 0.5 m further, the tip 0.5 m
 // beyond: 0.5 + 0.8 + 0.5 reach from the shoulder at full slide... plus the first bone.
-Chain telescope() {
-  ChainBuilder b;
-  JointDesc shoulder;
-  b.add_joint(shoulder);
-  JointDesc slide;
-  slide.type = JointType::kPrismatic;
-  slide.hinge_axis = glm::dvec3(0, 1, 0);
-  slide.offset_translation = glm::dvec3(0, 0.5, 0);
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.8;
-  b.add_joint(slide);
-  JointDesc elbow;
-  elbow.type = JointType::kHinge;
-  elbow.hinge_axis = glm::dvec3(1, 0, 0);
-  elbow.offset_translation = glm::dvec3(0, 0.5, 0);
-  b.add_joint(elbow);
-  b.set_tip_offset(glm::dvec3(0, 0.5, 0));
-  Chain c;
-  const Message m = b.build(c).message;
-  EXPECT_TRUE(m.empty()) << m.c_str();
-  return c;
-}
+Chain telescope() { return test::telescope_arm(/*with_wrist=*/false); }
 
 // Item 3: set_offsets measures bones as build() does (a slide's range counts), and takes the same
 // +-kMaxMagnitude bound.

@@ -5,38 +5,12 @@
 #include <string>
 
 #include "solver_test_util.hpp"
+#include "telescope_arm.hpp"
 
 namespace ikchain {
 namespace {
 
-// A ball shoulder, a telescoping upper arm (slides along its bone, +Y, 0..0.8 m), a hinge elbow,
-// a ball wrist; 0.5 m bones.
-Chain telescope_arm() {
-  ChainBuilder b;
-  JointDesc shoulder;
-  b.add_joint(shoulder);
-  JointDesc slide;
-  slide.type = JointType::kPrismatic;
-  slide.hinge_axis = glm::dvec3(0, 1, 0);
-  slide.offset_translation = glm::dvec3(0, 0.5, 0);
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.8;
-  b.add_joint(slide);
-  JointDesc elbow;
-  elbow.type = JointType::kHinge;
-  elbow.hinge_axis = glm::dvec3(1, 0, 0);
-  elbow.offset_translation = glm::dvec3(0, 0.5, 0);
-  b.add_joint(elbow);
-  JointDesc wrist;
-  wrist.offset_translation = glm::dvec3(0, 0.5, 0);
-  b.add_joint(wrist);
-  b.set_tip_offset(glm::dvec3(0, 0.3, 0));
-  Chain c;
-  const Message m = b.build(c).message;
-  EXPECT_TRUE(m.empty()) << m.c_str();
-  return c;
-}
+using test::telescope_arm;
 
 Eigen::VectorXd random_in_range(const Chain& c, std::mt19937& rng) {
   Eigen::VectorXd p = test::random_params(c, rng, 1.2);
@@ -140,6 +114,27 @@ TEST(Prismatic, NeedsASlideRange) {
   const Message m = b.build(c).message;
   EXPECT_NE(std::string(m.c_str()).find("prismatic"), std::string::npos) << m.c_str();
   EXPECT_FALSE(c.valid());
+  // The range is the slide's own (metres), not the hinge's: a hinge range does not count for it,
+  // and the error names the field to set.
+  auto build_with = [&](const JointLimits& limits) {
+    slide.limits = limits;
+    b.clear();
+    b.add_joint(slide).set_tip_offset(glm::dvec3(0, 1, 0));
+    return b.build(c);
+  };
+  JointLimits hinge_range;
+  hinge_range.has_hinge_limit = true;
+  hinge_range.hinge_min = 0.0;
+  hinge_range.hinge_max = 0.5;
+  const BuildError e = build_with(hinge_range);
+  EXPECT_STREQ(e.field, "limits.slide_min") << e.message.c_str();
+  EXPECT_FALSE(c.valid());
+  JointLimits slide_range;
+  slide_range.has_slide_limit = true;
+  slide_range.slide_min = 0.0;
+  slide_range.slide_max = 0.5;
+  ASSERT_TRUE(build_with(slide_range).ok());
+  EXPECT_DOUBLE_EQ(c.bone_length(0), 1.5);  // the offset to the tip plus the longest slide
 }
 
 TEST(Prismatic, GeometricSolversRejectIt) {

@@ -14,9 +14,9 @@ Chain telescope() {
   slide.type = JointType::kPrismatic;
   slide.hinge_axis = glm::dvec3(0, 1, 0);
   slide.offset_translation = glm::dvec3(0, 1, 0);
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.5;
+  slide.limits.has_slide_limit = true;
+  slide.limits.slide_min = 0.0;
+  slide.limits.slide_max = 0.5;
   b.add_joint(root).add_joint(slide).set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
   EXPECT_TRUE(b.build(c).ok());

@@ -232,9 +232,9 @@ TEST(TreeSolvers, ChainOnlySolversAreRefusedByName) {
   slide.parent = Humanoid::kLWrist;
   slide.type = JointType::kPrismatic;
   slide.axis = {1, 0, 0};
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.1;
+  slide.limits.has_slide_limit = true;
+  slide.limits.slide_min = 0.0;
+  slide.limits.slide_max = 0.1;
   b.add_joint(slide);
   Tree with_slide;
   ASSERT_TRUE(b.build(with_slide).ok());

@@ -2,8 +2,10 @@
 // against finite differences, and a chain as the tree without branches.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
 #include <random>
+#include <string>
 
 #include "core/kinematics.hpp"
 #include "core/solve.hpp"
@@ -71,9 +73,9 @@ TEST(Tree, PrismaticJointShiftsItsChildrenAndEffectors) {
   slide.type = JointType::kPrismatic;
   slide.offset_in_parent = {0, 1, 0};
   slide.axis = {0, 2, 0};  // normalised by the build
-  slide.limits.has_hinge_limit = true;
-  slide.limits.hinge_min = 0.0;
-  slide.limits.hinge_max = 0.5;
+  slide.limits.has_slide_limit = true;
+  slide.limits.slide_min = 0.0;
+  slide.limits.slide_max = 0.5;
   b.add_joint(slide);
   b.add_joint(test::hinge(1, {0, 1, 0}, {0, 0, 1}, -90, 90));
   b.add_effector({2, {0, 1, 0}, {1, 0, 0, 0}});
@@ -251,6 +253,13 @@ TEST(Tree, InvalidTreesAreRejectedByName) {
     EXPECT_STREQ(e.field, c.field) << c.what << ": " << e.message.c_str();
     const char* dot = std::strrchr(c.field, '.');
     EXPECT_NE(std::strstr(e.message.c_str(), dot ? dot + 1 : c.field), nullptr) << c.what << ": " << e.message.c_str();
+    // The message is made from the data: the joint or effector by index, then the reason, which
+    // names neither (so a caller showing a bone's name does not show the index too).
+    char prefix[32];
+    std::snprintf(prefix, sizeof prefix, c.joint >= 0 ? "joint %d: " : "effector %d: ", c.joint >= 0 ? c.joint : c.effector);
+    EXPECT_EQ(std::string(e.message.c_str()), prefix + std::string(e.reason.c_str())) << c.what;
+    EXPECT_EQ(std::strstr(e.reason.c_str(), "joint 17"), nullptr) << c.what << ": " << e.reason.c_str();
+    EXPECT_EQ(std::strstr(e.reason.c_str(), "effector 6"), nullptr) << c.what << ": " << e.reason.c_str();
   }
   // A floating root must be a ball hanging from the base.
   TreeBuilder b;
@@ -260,6 +269,8 @@ TEST(Tree, InvalidTreesAreRejectedByName) {
   const TreeBuildError e = b.build(t);
   EXPECT_EQ(e.joint, 0);
   EXPECT_STREQ(e.field, "type");
+  EXPECT_STREQ(e.reason.c_str(), "a floating root must be a ball joint with parent -1");
+  EXPECT_STREQ(e.message.c_str(), "joint 0: a floating root must be a ball joint with parent -1");
   // Nothing at all.
   EXPECT_FALSE(TreeBuilder().build(t).ok());
 }

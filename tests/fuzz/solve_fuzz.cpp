@@ -247,10 +247,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (d.ConsumeBool()) j.hinge_axis = pick_vec(d, 1.0);
     const uint8_t lim = d.ConsumeIntegral<uint8_t>();
     JointLimits& l = j.limits;
-    if (lim & 1) {
-      l.has_hinge_limit = true;
-      l.hinge_min = pick_mostly(d, 4.0);
-      l.hinge_max = pick_mostly(d, 4.0);
+    if (lim & 1) {  // the one param's range: a hinge's angle, a slide's metres
+      const double low = pick_mostly(d, 4.0), high = pick_mostly(d, 4.0);
+      if (j.type == JointType::kPrismatic) {
+        l.has_slide_limit = true;
+        l.slide_min = low;
+        l.slide_max = high;
+      } else {
+        l.has_hinge_limit = true;
+        l.hinge_min = low;
+        l.hinge_max = high;
+      }
     }
     if (lim & 2) {
       l.has_cone_limit = true;
@@ -391,12 +398,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       const JointLimits& l = j.limits;
       std::fprintf(stderr,
                    "  joint %d type %d offset (%.17g, %.17g, %.17g) rest (%.17g, %.17g, %.17g, %.17g) hinge_axis "
-                   "(%.17g, %.17g, %.17g)\n    hinge %d [%.17g, %.17g] cone %d %.17g twist %d [%.17g, %.17g] "
+                   "(%.17g, %.17g, %.17g)\n    hinge %d [%.17g, %.17g] slide %d [%.17g, %.17g] cone %d %.17g twist %d [%.17g, %.17g] "
                    "twist_axis (%.17g, %.17g, %.17g)\n",
                    i, static_cast<int>(j.type), j.offset_translation.x, j.offset_translation.y,
                    j.offset_translation.z, j.rest_rotation.w, j.rest_rotation.x, j.rest_rotation.y, j.rest_rotation.z,
                    j.hinge_axis.x, j.hinge_axis.y, j.hinge_axis.z, l.has_hinge_limit, l.hinge_min, l.hinge_max,
-                   l.has_cone_limit, l.cone_angle, l.has_twist_limit, l.twist_min, l.twist_max, l.twist_axis.x,
+                   l.has_slide_limit, l.slide_min, l.slide_max, l.has_cone_limit, l.cone_angle, l.has_twist_limit, l.twist_min, l.twist_max, l.twist_axis.x,
                    l.twist_axis.y, l.twist_axis.z);
     }
     std::fprintf(stderr, "  tip_offset (%.17g, %.17g, %.17g)\n", tip_offset.x, tip_offset.y, tip_offset.z);

@@ -327,6 +327,8 @@ TEST(SkeletonTree, BuildErrorsNameTheBoneAndNothingHalfBuiltSurvives) {
   EXPECT_FALSE(map.valid());
   EXPECT_NE(std::string(m.c_str()).find("LeftLowerLeg"), std::string::npos) << m.c_str();
   EXPECT_NE(std::string(m.c_str()).find("hinge_min"), std::string::npos) << m.c_str();
+  // The bone names the joint; its index inside the tree is not shown as well.
+  EXPECT_EQ(std::string(m.c_str()).find(": joint "), std::string::npos) << m.c_str();
   EXPECT_EQ(map.bone_count(), 0);
 
   SkeletonTreeDesc no_effectors = describe(s, "Hips", {"LeftFoot"}, false);

@@ -1,7 +1,8 @@
 // The core's small dense linear algebra, in one place: the cyclic Jacobi eigen-decomposition (the
 // Jacobian solvers' Gram matrices, the escapes' null-space projection, CCD's and FABRIK's 4x4 Horn
-// fits), the Cholesky factorisation (BFGS's normal equations) and the unrolled 3x3 LDL^T solve (the
-// single-goal DLS step). Everything works in place on fixed-size matrices or workspace blocks and
+// fits), the Cholesky factorisation (BFGS's normal equations), the unrolled 3x3 LDL^T solve (the
+// single-goal DLS step) and the column-block kernels of the tree DLS's priority levels (a
+// right-looking Cholesky, triangular solves, a Gram update). Everything works in place on fixed-size matrices or workspace blocks and
 // allocates nothing: Eigen's own decompositions size their storage at run time.
 #pragma once
 #include <algorithm>
@@ -135,6 +136,59 @@ inline Eigen::Vector3d solve_spd3(const Eigen::Matrix3d& a, const Eigen::Vector3
   y[1] = z1 / d1 - l21 * y[2];
   y[0] = z0 / d0 - l10 * y[1] - l20 * y[2];
   return y;
+}
+
+// Small dense kernels on column-major blocks (pointer + leading dimension), column-oriented so the
+// inner loops run down contiguous columns: the tree DLS's priority levels (solvers/tree_dls.cpp).
+// Their matrices are 3 rows per goal (18 x 18 for six 6-D goals): too small for Eigen's blocked
+// products, whose packing costs more than the arithmetic here.
+struct Cols {
+  double* p;
+  Eigen::Index ld;
+  double& operator()(int i, int j) const { return p[i + j * ld]; }
+  double* col(int j) const { return p + j * ld; }
+};
+template <class Block>
+Cols cols_of(Block&& b) {
+  return Cols{b.data(), b.outerStride()};
+}
+
+using Seg = Eigen::Map<Eigen::VectorXd>;
+using ConstSeg = Eigen::Map<const Eigen::VectorXd>;
+
+// A = L L^T in place (lower triangle; the upper is not read), right-looking (cholesky_factor
+// above is left-looking, on any matrix type: the two round differently, so each caller keeps its
+// own); pivots below min_pivot2 are raised to it (cholesky_factor's rule).
+inline void cholesky_lower(Cols a, int n, double min_pivot2) {
+  for (int j = 0; j < n; ++j) {
+    double* cj = a.col(j);
+    const double d = std::sqrt(std::max(cj[j], min_pivot2));
+    cj[j] = d;
+    Seg(cj + j + 1, n - j - 1) *= 1.0 / d;
+    for (int k = j + 1; k < n; ++k) Seg(a.col(k) + k, n - k) -= cj[k] * ConstSeg(cj + k, n - k);
+  }
+}
+// x <- L^-1 x (forward substitution) for a vector with stride 1.
+inline void lower_solve(Cols l, int n, double* x) {
+  for (int k = 0; k < n; ++k) {
+    const double* ck = l.col(k);
+    const double v = (x[k] /= ck[k]);
+    Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
+  }
+}
+// x <- L^-T x (back substitution).
+inline void lower_transpose_solve(Cols l, int n, double* x) {
+  for (int k = n - 1; k >= 0; --k) {
+    const double* ck = l.col(k);
+    x[k] = (x[k] - ConstSeg(ck + k + 1, n - k - 1).dot(ConstSeg(x + k + 1, n - k - 1))) / ck[k];
+  }
+}
+// S -= W^T W on S's lower triangle (W: rows x cols, S: cols x cols).
+inline void subtract_gram_of_columns(Cols w, int rows, int cols, Cols s) {
+  for (int j = 0; j < cols; ++j) {
+    const ConstSeg wj(w.col(j), rows);
+    for (int i = j; i < cols; ++i) s(i, j) -= ConstSeg(w.col(i), rows).dot(wj);
+  }
 }
 
 }  // namespace linalg

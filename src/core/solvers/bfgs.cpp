@@ -115,9 +115,9 @@ class Bfgs {
   // frozen); 0 when free.
   int frozen(int joint, const Eigen::VectorXd& g, glm::dvec3 normals[2]) const {
     const int o = chain_.dof_offset(joint);
-    if (chain_.joint_type(joint) != JointType::kBall) return hinge_blocked(chain_, joint, x_.data(), -g[o]) ? 1 : 0;
-    const double descent[3] = {-g[o], -g[o + 1], -g[o + 2]};
-    return ball_blocked(chain_, joint, x_.data(), descent, normals);
+    double descent[3] = {0.0, 0.0, 0.0};
+    for (int k = 0; k < chain_.dof_count_of(joint); ++k) descent[k] = -g[o + k];
+    return joint_params_blocked(chain_.joint_type(joint), chain_.limits(joint), x_.data() + o, descent, normals);
   }
 
   // Whether any joint is frozen at x (ball joints' test is not free, and most poses have none):
@@ -140,8 +140,9 @@ class Bfgs {
     for (int i = 0; i < chain_.joint_count(); ++i) {
       const int count = frozen(i, ws_.gradient, normals);
       const int o = chain_.dof_offset(i);
-      if (count > 0 && chain_.joint_type(i) != JointType::kBall) v[o] = 0.0;
-      for (int k = 0; k < count && chain_.joint_type(i) == JointType::kBall; ++k) {
+      const bool one_dof = is_one_dof(chain_.joint_type(i));
+      if (count > 0 && one_dof) v[o] = 0.0;
+      for (int k = 0; k < count && !one_dof; ++k) {
         const double along = v[o] * normals[k].x + v[o + 1] * normals[k].y + v[o + 2] * normals[k].z;
         for (int d = 0; d < 3; ++d) v[o + d] -= along * normals[k][d];
       }
@@ -164,7 +165,7 @@ class Bfgs {
     double m = 0.0;
     for (int i = 0; i < chain_.joint_count(); ++i) {
       const int o = chain_.dof_offset(i);
-      const double rot = chain_.joint_type(i) != JointType::kBall  // a slide counts metres as radians
+      const double rot = is_one_dof(chain_.joint_type(i))  // a slide counts metres as radians
                              ? std::abs(d[o])
                              : std::sqrt(d[o] * d[o] + d[o + 1] * d[o + 1] + d[o + 2] * d[o + 2]);
       m = std::max(m, rot);
@@ -183,8 +184,9 @@ class Bfgs {
     for (int i = 0; i < chain_.joint_count(); ++i) {
       const int count = frozen(i, ws_.gradient, normals);
       const int o = chain_.dof_offset(i);
-      if (count > 0 && chain_.joint_type(i) != JointType::kBall) ws_.jacobian.col(o).head(rows_).setZero();
-      for (int k = 0; k < count && chain_.joint_type(i) == JointType::kBall; ++k)
+      const bool one_dof = is_one_dof(chain_.joint_type(i));
+      if (count > 0 && one_dof) ws_.jacobian.col(o).head(rows_).setZero();
+      for (int k = 0; k < count && !one_dof; ++k)
         remove_ball_direction(ws_.jacobian, rows_, o, normals[k]);
     }
   }

@@ -85,8 +85,8 @@ SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverO
   while (status.iterations < options.max_iterations && !(status.iterations == 0 && ws.deadline.spent())) {
     double moved = INFINITY;
     if (status.iterations == 0 && progress.out_of_reach()) {
-      for (int k = 1; k <= n; ++k) ws.points_b[k] = goals[0].target_position;
-      geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params);
+      for (int k = 1; k <= n; ++k) ws.points_aim[k] = goals[0].target_position;
+      geometric::aim_chain_at_points(chain, ws, ws.points_aim.data(), options.max_step_angle, params);
     } else {
       moved = sweep(chain, goals, options, ws, tracked, params);
     }

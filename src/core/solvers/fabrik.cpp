@@ -6,9 +6,9 @@
 //
 // FABRIK works on positions: the points p_0..p_n (joint origins and the tip) with fixed bone
 // lengths l_i = |p_{i+1} - p_i|. One iteration = one forward + one backward stage:
-//  - forward reaching (tip to root, ws.points_b): the tip is placed on its target, then each point
+//  - forward reaching (tip to root, ws.points_aim): the tip is placed on its target, then each point
 //    p_i is pulled to distance l_i from the point after it, along the line to its old position
-//    (ws.points_a = forward kinematics of the current params);
+//    (ws.points_current = forward kinematics of the current params);
 //  - backward reaching (root to tip), fused with the conversion back to joint parameters: the root
 //    stays at o_0 and each joint j, in turn, turns so that its bone points at the forward-reaching
 //    point p_{j+1} (geometric::aim_chain_at_points). A ball joint takes the minimal rotation from its
@@ -115,12 +115,12 @@ glm::dvec3 last_hinge_circle_pin(const Chain& chain, const glm::dquat& last_fram
   return center + out_dir * radius;
 }
 
-// Forward reaching stage into ws.points_b[1..n] from the current points ws.points_a. `last_frame`:
+// Forward reaching stage into ws.points_aim[1..n] from the current points ws.points_current. `last_frame`:
 // the last joint's target frame (last_frame_target), or null.
 void forward_reaching(const Chain& chain, Span<const Goal> goals, const glm::dquat* last_frame, Workspace& ws) {
   const int n = chain.joint_count();
-  const glm::dvec3* a = ws.points_a.data();
-  glm::dvec3* b = ws.points_b.data();
+  const glm::dvec3* a = ws.points_current.data();
+  glm::dvec3* b = ws.points_aim.data();
   if (!pinned_target(chain, goals, n, b[n])) b[n] = a[n];
   const bool last_hinge = chain.joint_type(n - 1) == JointType::kHinge;
   for (int i = n - 1; i >= 1; --i) {
@@ -172,10 +172,10 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
   // after each (kMaxIterations).
   while (status.iterations < options.max_iterations && !(status.iterations == 0 && ws.deadline.spent())) {
     if (status.iterations == 0 && progress.out_of_reach()) {
-      for (int k = 1; k <= n; ++k) ws.points_b[k] = goals[0].target_position;
+      for (int k = 1; k <= n; ++k) ws.points_aim[k] = goals[0].target_position;
     } else {
-      for (int k = 0; k < n; ++k) ws.points_a[k] = ws.joint_origins[k];
-      ws.points_a[n] = ws.tip;
+      for (int k = 0; k < n; ++k) ws.points_current[k] = ws.joint_origins[k];
+      ws.points_current[n] = ws.tip;
       forward_reaching(chain, goals, has_last_frame ? &last_frame : nullptr, ws);
     }
     std::copy(params, params + chain.dof_count(), ws.params_trial.data());
@@ -184,9 +184,9 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
       axis_point.old_in_base =
           ws.joint_origins[n - 1] +
           geometric::hinge_axis_in_base(chain, n - 1, ws.joint_pre_rotations[n - 1]) * axis_distance;
-      axis_point.desired_in_base = ws.points_b[n - 1] + desired_axis_offset;
+      axis_point.desired_in_base = ws.points_aim[n - 1] + desired_axis_offset;
     }
-    geometric::aim_chain_at_points(chain, ws, ws.points_b.data(), options.max_step_angle, params,
+    geometric::aim_chain_at_points(chain, ws, ws.points_aim.data(), options.max_step_angle, params,
                                    fit_last_axis ? &axis_point : nullptr);
     if (tip_frame_goals) {  // final alignment of the last joint (see above)
       forward_kinematics(chain, params, ws);

@@ -187,7 +187,7 @@ class SinglePositionModel {
       for (int i = 0; i < effector_; ++i) {
         const glm::dvec3 arm = (effector_position_ - origins[i]) * sqrt_weight_;
         const int o = chain_.dof_offset(i);
-        if (chain_.joint_type(i) == JointType::kPrismatic) {
+        if (!turns(chain_.joint_type(i))) {
           slide_column(o);
           continue;
         }
@@ -548,7 +548,7 @@ double limit_aware_step(const Chain& chain, Model& model, const double* params, 
     bool froze = false;
     for (int i = 0; i < chain.joint_count() && chain.dof_offset(i) < active; ++i) {
       const int o = chain.dof_offset(i);
-      if (chain.joint_type(i) == JointType::kBall) {
+      if (!is_one_dof(chain.joint_type(i))) {
         glm::dvec3 normals[2];
         const int count = ball_blocked(chain, i, params, step + o, normals);
         for (int k = 0; k < count; ++k) model.freeze_direction(o, normals[k]);

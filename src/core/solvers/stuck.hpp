@@ -465,11 +465,11 @@ class Escapes {
       if (!low && !hinge_blocked(chain_, i, params, 1.0)) continue;
       moved = true;
       if (wrap_across_bound(chain_, i, params)) continue;
-      const JointLimits& l = chain_.limits(i);
+      const ParamRange r = param_range(chain_.joint_type(i), chain_.limits(i));
       const double toward_other_end = full_ >= 3 ? kSecondUnpinFraction : 0.5;
       params[chain_.dof_offset(i)] =
-          low ? l.hinge_min + toward_other_end * (l.hinge_max - l.hinge_min)
-              : l.hinge_max - toward_other_end * (l.hinge_max - l.hinge_min);
+          low ? r.min + toward_other_end * (r.max - r.min)
+              : r.max - toward_other_end * (r.max - r.min);
     }
     return moved;
   }

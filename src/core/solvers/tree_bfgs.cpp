@@ -130,9 +130,9 @@ class TreeBfgs {
     if (!tree_.has_limits(j)) return 0;
     const int o = tree_.dof_offset(j);
     const Eigen::VectorXd& g = ws_.gradient;
-    if (tree_.joint_type(j) != JointType::kBall) return one_dof_blocked(tree_.limits(j), x_[o], -g[o]) ? 1 : 0;
-    const double descent[3] = {-g[o], -g[o + 1], -g[o + 2]};
-    return ball_params_blocked(tree_.limits(j), x_.data() + o, descent, normals);
+    double descent[3] = {0.0, 0.0, 0.0};
+    for (int k = 0; k < tree_.dof_count_of(j); ++k) descent[k] = -g[o + k];
+    return joint_params_blocked(tree_.joint_type(j), tree_.limits(j), x_.data() + o, descent, normals);
   }
 
   // Calls visit(j, count, normals) for every frozen joint the goals depend on.
@@ -151,7 +151,7 @@ class TreeBfgs {
   void zero_frozen(Eigen::VectorXd& v) const {
     each_frozen([&](int j, int count, const glm::dvec3* normals) {
       const int o = tree_.dof_offset(j);
-      if (tree_.joint_type(j) != JointType::kBall) {
+      if (is_one_dof(tree_.joint_type(j))) {
         v[o] = 0.0;
         return;
       }
@@ -174,7 +174,7 @@ class TreeBfgs {
     if (tree_.floating_root()) m = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (int j = 0; j < tree_.joint_count(); ++j) {
       const int o = tree_.dof_offset(j);
-      const double rot = tree_.joint_type(j) != JointType::kBall
+      const double rot = is_one_dof(tree_.joint_type(j))
                              ? std::abs(d[o])
                              : std::sqrt(d[o] * d[o] + d[o + 1] * d[o + 1] + d[o + 2] * d[o + 2]);
       m = std::max(m, rot);
@@ -190,7 +190,7 @@ class TreeBfgs {
     auto J = ws_.jacobian.topRows(rows_);
     each_frozen([&](int j, int count, const glm::dvec3* normals) {
       const int o = tree_.dof_offset(j);
-      if (tree_.joint_type(j) != JointType::kBall) {
+      if (is_one_dof(tree_.joint_type(j))) {
         J.col(o).setZero();
         return;
       }
@@ -249,7 +249,7 @@ class TreeBfgs {
     x_ = ws_.params_kept;
     bool wrapped = false;
     for (int j = 0; j < tree_.joint_count(); ++j) {
-      if (tree_.joint_type(j) != JointType::kBall) continue;
+      if (is_one_dof(tree_.joint_type(j))) continue;  // only rotation vectors wrap
       const int o = tree_.dof_offset(j);
       const glm::dvec3 r(x_[o], x_[o + 1], x_[o + 2]);
       const glm::dvec3 w = so3::wrap_rotation_vector(r);

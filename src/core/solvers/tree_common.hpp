@@ -84,16 +84,18 @@ inline bool escape(const Tree& tree, const TreeWorkspace& ws, int active, int nu
       const int j = ws.dof_joint[d];
       if (j < 0 || d != tree.dof_offset(j) || !tree.has_limits(j)) continue;  // each joint once
       const JointLimits& l = tree.limits(j);
-      if (tree.joint_type(j) == JointType::kBall) {
+      const JointType type = tree.joint_type(j);
+      const ParamRange range = param_range(type, l);
+      if (!is_one_dof(type)) {
         if (ball_params_on_boundary(l, params + d)) {
           for (int k = 0; k < 3; ++k) params[d + k] *= 0.5;
           moved = true;
         }
-      } else if (one_dof_blocked(l, params[d], -1.0)) {
-        params[d] = l.hinge_min + toward_other_end * (l.hinge_max - l.hinge_min);
+      } else if (one_dof_blocked(type, l, params[d], -1.0)) {
+        params[d] = range.min + toward_other_end * (range.max - range.min);
         moved = true;
-      } else if (one_dof_blocked(l, params[d], 1.0)) {
-        params[d] = l.hinge_max - toward_other_end * (l.hinge_max - l.hinge_min);
+      } else if (one_dof_blocked(type, l, params[d], 1.0)) {
+        params[d] = range.max - toward_other_end * (range.max - range.min);
         moved = true;
       }
     }

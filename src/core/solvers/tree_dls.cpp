@@ -23,6 +23,7 @@
 #include <cmath>
 
 #include "core/kinematics.hpp"
+#include "core/math/linalg.hpp"
 #include "core/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_common.hpp"
@@ -171,64 +172,23 @@ bool any_limited_joint(const Tree& tree, const TreeWorkspace& ws, int columns, V
   for (int c = 0; c < columns;) {
     const int d = ws.active_dofs[c];
     const int j = ws.dof_joint[d];
-    const int width = j >= 0 && tree.joint_type(j) == JointType::kBall ? 3 : 1;
+    const int width = j >= 0 ? tree.dof_count_of(j) : 1;
     if (j >= 0 && tree.has_limits(j) && visit(j, d, c)) return true;
     c += width;
   }
   return false;
 }
 
-// Small dense kernels on column-major blocks (pointer + leading dimension), column-oriented so the
-// inner loops run down contiguous columns. The levels' matrices are 3 rows per goal (18 x 18 for
-// six 6-D goals): too small for Eigen's blocked products, whose packing costs more than the
-// arithmetic here.
-struct Cols {
-  double* p;
-  Eigen::Index ld;
-  double& operator()(int i, int j) const { return p[i + j * ld]; }
-  double* col(int j) const { return p + j * ld; }
-};
-template <class Block>
-Cols cols_of(Block&& b) {
-  return Cols{b.data(), b.outerStride()};
-}
-
-using Seg = Eigen::Map<Eigen::VectorXd>;
-using ConstSeg = Eigen::Map<const Eigen::VectorXd>;
-
-// A = L L^T in place (lower triangle; the upper is not read), right-looking; pivots below
-// min_pivot2 are raised to it (linalg::cholesky_factor's rule).
-void cholesky_lower(Cols a, int n, double min_pivot2) {
-  for (int j = 0; j < n; ++j) {
-    double* cj = a.col(j);
-    const double d = std::sqrt(std::max(cj[j], min_pivot2));
-    cj[j] = d;
-    Seg(cj + j + 1, n - j - 1) *= 1.0 / d;
-    for (int k = j + 1; k < n; ++k) Seg(a.col(k) + k, n - k) -= cj[k] * ConstSeg(cj + k, n - k);
-  }
-}
-// x <- L^-1 x (forward substitution) for a vector with stride 1.
-void lower_solve(Cols l, int n, double* x) {
-  for (int k = 0; k < n; ++k) {
-    const double* ck = l.col(k);
-    const double v = (x[k] /= ck[k]);
-    Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
-  }
-}
-// x <- L^-T x (back substitution).
-void lower_transpose_solve(Cols l, int n, double* x) {
-  for (int k = n - 1; k >= 0; --k) {
-    const double* ck = l.col(k);
-    x[k] = (x[k] - ConstSeg(ck + k + 1, n - k - 1).dot(ConstSeg(x + k + 1, n - k - 1))) / ck[k];
-  }
-}
-// S -= W^T W on S's lower triangle (W: rows x cols, S: cols x cols).
-void subtract_gram_of_columns(Cols w, int rows, int cols, Cols s) {
-  for (int j = 0; j < cols; ++j) {
-    const ConstSeg wj(w.col(j), rows);
-    for (int i = j; i < cols; ++i) s(i, j) -= ConstSeg(w.col(i), rows).dot(wj);
-  }
-}
+// The column-block kernels (Cols, the right-looking Cholesky, the triangular solves, the Gram
+// update) are core/math/linalg.hpp's.
+using linalg::Cols;
+using linalg::cols_of;
+using linalg::cholesky_lower;
+using linalg::lower_solve;
+using linalg::lower_transpose_solve;
+using linalg::subtract_gram_of_columns;
+using Seg = linalg::Seg;
+using ConstSeg = linalg::ConstSeg;
 
 class HierarchicalStep {
  public:
@@ -294,7 +254,7 @@ class HierarchicalStep {
         const int d0 = tree_.dof_offset(j);
         if (j == 0 && tree_.floating_root())
           for (int d = 0; d < 3; ++d) put(ws_.dof_column[d], translation_column(g.kind, ws_.dof_axes[d], lin));
-        if (tree_.joint_type(j) == JointType::kPrismatic) {
+        if (!turns(tree_.joint_type(j))) {
           put(ws_.dof_column[d0], translation_column(g.kind, ws_.dof_axes[d0], lin));
           continue;
         }
@@ -458,8 +418,9 @@ class HierarchicalStep {
   // (block_limits() would change J).
   bool would_block(const double* params) const {
     return any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
-      if (tree_.joint_type(j) != JointType::kBall)
-        return one_dof_blocked(tree_.limits(j), params[d], ws_.step[d]) && ws_.jacobian.col(c).head(rows_).any();
+      if (is_one_dof(tree_.joint_type(j)))
+        return one_dof_blocked(tree_.joint_type(j), tree_.limits(j), params[d], ws_.step[d]) &&
+               ws_.jacobian.col(c).head(rows_).any();
       glm::dvec3 normals[2];
       return ball_params_blocked(tree_.limits(j), params + d, ws_.step.data() + d, normals) > 0;
     });
@@ -521,8 +482,9 @@ class HierarchicalStep {
     any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int) {
       const JointLimits& l = tree_.limits(j);
       const double* s = ws_.step.data() + d;
-      if (tree_.joint_type(j) != JointType::kBall) {
-        const double to = s[0] > 0.0 ? l.hinge_max - params[d] : l.hinge_min - params[d];
+      if (is_one_dof(tree_.joint_type(j))) {
+        const ParamRange range = param_range(tree_.joint_type(j), l);
+        const double to = s[0] > 0.0 ? range.max - params[d] : range.min - params[d];
         if (s[0] != 0.0 && std::abs(s[0]) > std::abs(to)) fraction = std::min(fraction, std::max(to / s[0], 0.0));
         return false;
       }
@@ -567,8 +529,9 @@ class HierarchicalStep {
   bool block_limits(const double* params) {
     bool changed = false;
     any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
-      if (tree_.joint_type(j) != JointType::kBall) {
-        if (one_dof_blocked(tree_.limits(j), params[d], ws_.step[d]) && ws_.jacobian.col(c).head(rows_).any()) {
+      if (is_one_dof(tree_.joint_type(j))) {
+        if (one_dof_blocked(tree_.joint_type(j), tree_.limits(j), params[d], ws_.step[d]) &&
+            ws_.jacobian.col(c).head(rows_).any()) {
           ws_.jacobian.col(c).head(rows_).setZero();
           changed = true;
         }
@@ -604,7 +567,7 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
   for (int d = 0; d < n; ++d) trial[d] = params[d] + step[d];
   for (int j = 0; j < tree.joint_count(); ++j) {
     const int d = tree.dof_offset(j);
-    if (tree.joint_type(j) == JointType::kBall) {
+    if (!is_one_dof(tree.joint_type(j))) {
       glm::dvec3 s(step[d], step[d + 1], step[d + 2]);
       const double len = glm::length(s);
       if (o.max_step_angle > 0.0 && len > o.max_step_angle) s *= o.max_step_angle / len;
@@ -612,19 +575,18 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
       trial[d] = r.x;
       trial[d + 1] = r.y;
       trial[d + 2] = r.z;
-    } else if (tree.joint_type(j) == JointType::kHinge && o.max_step_angle > 0.0) {
+    } else if (turns(tree.joint_type(j)) && o.max_step_angle > 0.0) {  // a slide's metres: no cap
       trial[d] = params[d] + std::clamp(step[d], -o.max_step_angle, o.max_step_angle);
     }
   }
   project_tree_to_limits(tree, trial);
 }
 
-// True when an active joint rests on a bound of its limits (a hinge or slide on hinge_min/max, a
-// ball on its cone or a twist bound).
+// True when an active joint rests on a bound of its limits (a hinge or slide on its range, a ball
+// on its cone or a twist bound).
 bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const double* params) {
   return any_limited_joint(tree, ws, columns, [&](int j, int d, int) {
-    if (tree.joint_type(j) == JointType::kBall) return ball_params_on_boundary(tree.limits(j), params + d);
-    return one_dof_blocked(tree.limits(j), params[d], -1.0) || one_dof_blocked(tree.limits(j), params[d], 1.0);
+    return joint_params_at_limit(tree.joint_type(j), tree.limits(j), params + d);
   });
 }
 

@@ -9,7 +9,7 @@
 // at a fixed distance from its parent point (the bone: |offset_in_parent|, or the effector's
 // |offset|). Each point carries the weight of the position goals below it (goal weight x level
 // weight, tree_common.hpp: priorities as weight ratios). One iteration:
-//  - forward stage (from the effectors toward the root, ws.points_b): an effector point is placed on
+//  - forward stage (from the effectors toward the root, ws.points_forward): an effector point is placed on
 //    its target (the weighted mean of its position goals), a joint point is pulled from each of its
 //    children toward its old position to the bone's length, and a sub-base (a joint several
 //    targeted branches meet at: the chest, the hips) takes the centroid of its branches' proposals,
@@ -18,7 +18,7 @@
 //    effector at its origin with a position goal, or an effector with both a position and an
 //    orientation goal (the joint sits at target - F offset, F the frame the heaviest orientation
 //    goal asks for: fabrik.cpp's tip-frame pin, on every effector).
-//  - backward stage (from the root, ws.points_c): the root stays at its origin (a floating root
+//  - backward stage (from the root, ws.points_backward): the root stays at its origin (a floating root
 //    goes to the forward stage's centroid: the body moves to where its branches pull it), and every
 //    point is pulled from its parent's new position to the bone's length.
 //  - conversion, fused, root first: each joint turns so that the points below it best follow their
@@ -110,14 +110,14 @@ class TreeFabrik {
   bool frame_goals_ = false;
 };
 
-// Into ws.points_b (ws.points_c accumulates the children's weighted proposals); ws.points_a holds
+// Into ws.points_forward (ws.points_backward accumulates the children's weighted proposals); ws.points_current holds
 // the current points.
 void TreeFabrik::forward_stage() {
-  const glm::dvec3* a = ws_.points_a.data();
-  glm::dvec3* b = ws_.points_b.data();
-  glm::dvec3* acc = ws_.points_c.data();
-  std::fill(ws_.points_c.begin(), ws_.points_c.end(), glm::dvec3(0.0));
-  std::fill(ws_.points_b.begin(), ws_.points_b.begin() + joints_, glm::dvec3(INFINITY));  // not pinned
+  const glm::dvec3* a = ws_.points_current.data();
+  glm::dvec3* b = ws_.points_forward.data();
+  glm::dvec3* acc = ws_.points_backward.data();
+  std::fill(ws_.points_backward.begin(), ws_.points_backward.end(), glm::dvec3(0.0));
+  std::fill(ws_.points_forward.begin(), ws_.points_forward.begin() + joints_, glm::dvec3(INFINITY));  // not pinned
   // A proposal for `point`'s parent: pulled from b[point] toward the parent's old position.
   auto propose = [&](int point) {
     const int p = parent_point(point);
@@ -152,29 +152,29 @@ void TreeFabrik::forward_stage() {
   }
 }
 
-// Into ws.points_c, from the root.
+// Into ws.points_backward, from the root.
 void TreeFabrik::backward_stage() {
-  const glm::dvec3* b = ws_.points_b.data();
-  glm::dvec3* c = ws_.points_c.data();
+  const glm::dvec3* b = ws_.points_forward.data();
+  glm::dvec3* c = ws_.points_backward.data();
   const int points = joints_ + tree_.effector_count();
   for (int k = 0; k < points; ++k) {
     if (!(weight(k) > 0.0)) continue;
     const int p = parent_point(k);
     if (p < 0) {
-      c[k] = (k == 0 && tree_.floating_root()) ? b[k] : ws_.points_a[k];
+      c[k] = (k == 0 && tree_.floating_root()) ? b[k] : ws_.points_current[k];
       continue;
     }
     const glm::dvec3 dir = b[k] - c[p];
     const double len = glm::length(dir);
-    c[k] = len > tiny_ ? c[p] + dir * (bone(k) / len) : c[p] + (ws_.points_a[k] - ws_.points_a[p]);
+    c[k] = len > tiny_ ? c[p] + dir * (bone(k) / len) : c[p] + (ws_.points_current[k] - ws_.points_current[p]);
   }
 }
 
-// Root first: each joint turned so the targeted points below it follow ws.points_c. ws's frames
+// Root first: each joint turned so the targeted points below it follow ws.points_backward. ws's frames
 // are overwritten joint by joint with the new pose (a joint's old frame is read before).
 void TreeFabrik::convert(double* params) {
-  const glm::dvec3* a = ws_.points_a.data();
-  const glm::dvec3* c = ws_.points_c.data();
+  const glm::dvec3* a = ws_.points_current.data();
+  const glm::dvec3* c = ws_.points_backward.data();
   const int points = joints_ + tree_.effector_count();
   for (int j = 0; j < joints_; ++j) {
     const int p = tree_.parent(j);
@@ -284,8 +284,8 @@ void TreeFabrik::align_frames(double* params) {
 double TreeFabrik::iterate(double* params) {
   const int dofs = tree_.dof_count();
   std::copy(params, params + dofs, ws_.params_trial.data());
-  for (int j = 0; j < joints_; ++j) ws_.points_a[j] = ws_.joint_origins[j];
-  for (int e = 0; e < tree_.effector_count(); ++e) ws_.points_a[joints_ + e] = tree_effector_position(tree_, ws_, e);
+  for (int j = 0; j < joints_; ++j) ws_.points_current[j] = ws_.joint_origins[j];
+  for (int e = 0; e < tree_.effector_count(); ++e) ws_.points_current[joints_ + e] = tree_effector_position(tree_, ws_, e);
   forward_stage();
   backward_stage();
   convert(params);  // leaves ws holding the new pose's frames
