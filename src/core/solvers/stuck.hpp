@@ -63,7 +63,7 @@ constexpr int kStallIterations = 3;
 // linearly and do not ask (the value: docs/solvers.md, "Why these constants").
 constexpr double kCreepGain = 1e-2;
 // Creeping iterations in a row (each gaining < kCreepGain) that are stuck wherever the pose is,
-// without restarts (Escapes::creep_is_long).
+// for a query (Escapes::creep_is_long).
 constexpr int kLongCreep = 2 * kStallIterations;
 // Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape): the
 // gentle first one and four full ones. The tree solvers' budget too.
@@ -97,7 +97,7 @@ constexpr double kGentleStep = kKickAmplitude;
 // gently first (a tracking frame: the target moved a little since the last pose).
 constexpr double kGentleError = 0.05;
 // Escapes in a row that found nothing kEscapeGain lower (the solve fell back into the minimum it
-// left) after which the next escape is a far one (far()): the local moves have shown that this
+// left) after which a query's next escape is a far one (far()): the local moves have shown that this
 // minimum's basin is wider than they reach. A 10-DOF torso + arm whose elbow branch is wrong, a
 // UR5 whose straight elbow holds a full pose 8 mm off: every local move led back (issue 16, item 20).
 constexpr int kFruitlessBeforeFar = 2;
@@ -283,7 +283,7 @@ class Escapes {
   }
 
   // Whether a creep is stuck by its length alone, wherever it is: kLongCreep iterations in a row
-  // each gaining < kCreepGain, and no restart follows. The Newton-like solvers' steps converge
+  // each gaining < kCreepGain, in a query (cold_query). The Newton-like solvers' steps converge
   // superlinearly near a regular solution; a creep this long is a singular trap approached along a
   // flat valley (a UR5's straight elbow holding a full pose 2 cm off for 20 iterations, issue 16,
   // item 20). The solver escapes it while escapes are left and otherwise creeps on.
@@ -439,6 +439,7 @@ class Escapes {
       const JointLimits& l = chain_.limits(i);
       const double lo = l.has_hinge_limit ? l.hinge_min : -so3::kPi;
       const double hi = l.has_hinge_limit ? l.hinge_max : so3::kPi;
+      // DOFs past the 12th reuse a root with a half-period shift.
       const double u = 0.5 + far_ * kRootPrimes[o % kRoots] + (o / kRoots) * 0.5;
       params[o] = lo + (hi - lo) * (u - std::floor(u));
     }
