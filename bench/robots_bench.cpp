@@ -22,7 +22,8 @@
 // solvers on the full poses with restarts and time_budget_usec = kBudgetUs; the largest
 // elapsed / budget over all solves (target <= 1.10).
 //
-// Usage: robots_bench [--out DIR] [--quick] CHAIN_FILE...   (writes DIR/robots.json, prints a table)
+// Usage: robots_bench [--out DIR] [--quick] [--solvers a,b] CHAIN_FILE...   (writes DIR/robots.json,
+// prints a table; --solvers keeps only the named solvers' rows, for a quick look at a few)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -461,13 +462,16 @@ int main(int argc, char** argv) {
   std::string out_dir = "build/bench";
   bool quick = false;
   std::vector<std::string> chain_files;
+  std::string only;  // --solvers: comma-separated names, empty = all
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--out") && i + 1 < argc) {
       out_dir = argv[++i];
     } else if (!std::strcmp(argv[i], "--quick")) {
       quick = true;
+    } else if (!std::strcmp(argv[i], "--solvers") && i + 1 < argc) {
+      only = std::string(",") + argv[++i] + ",";
     } else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: %s [--out DIR] [--quick] CHAIN_FILE...\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--out DIR] [--quick] [--solvers a,b] CHAIN_FILE...\n", argv[0]);
       return 2;
     } else {
       chain_files.push_back(argv[i]);
@@ -480,6 +484,9 @@ int main(int argc, char** argv) {
   const Clock::time_point run_start = Clock::now();
   bench::start_loadavg();
   const int trials = quick ? 100 : 2000;
+  auto selected = [&](const SolverSpec& sp) {
+    return only.empty() || only.find(std::string(",") + sp.name + ",") != std::string::npos;
+  };
   std::string arms_json, records;
   std::vector<Cell> all;
   for (const std::string& path : chain_files) {
@@ -520,6 +527,7 @@ int main(int argc, char** argv) {
     };
     for (bool full_pose : {false, true}) {
       for (const SolverSpec& spec : solver_specs()) {
+        if (!selected(spec)) continue;
         if (spec.is_kdl) {
           add(run_kdl(arm, spec, full_pose, 0, targets));
           if (full_pose) add(run_kdl(arm, spec, full_pose, kRestarts, targets));
@@ -530,7 +538,7 @@ int main(int argc, char** argv) {
       }
     }
     for (const SolverSpec& spec : solver_specs())
-      if (!spec.is_kdl) add(run_ours(arm, spec, true, kRestarts, kBudgetUs, geometric(spec) ? few_targets : targets));
+      if (!spec.is_kdl && selected(spec)) add(run_ours(arm, spec, true, kRestarts, kBudgetUs, geometric(spec) ? few_targets : targets));
   }
 
   // The targets, per solver over every arm (a target is met when it is met on each arm).
@@ -538,6 +546,7 @@ int main(int argc, char** argv) {
               "p99 <= 1 ms; position >= 99.9 %% without restarts; elapsed <= 1.10 x budget\n");
   std::string targets_json;
   for (const SolverSpec& spec : solver_specs()) {
+    if (!selected(spec)) continue;
     bool full_rate = true, full_median = true, full_p99 = true, position_rate = true, budget = true, any_budget = false;
     for (const Cell& c : all) {
       if (c.solver != spec.name || c.skipped) continue;

@@ -334,6 +334,7 @@ SolverStatus Bfgs::run() {
   jacobian_current_ = true;
   fresh_ = true;
   stall_.reset(err_.cost);
+  escapes_.start_at(err_.cost);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
     if (ws_.deadline.spent()) break;  // the time budget, checked before every iteration: kMaxIterations
@@ -389,6 +390,7 @@ SolverStatus Bfgs::run() {
       if (escape()) continue;
       break;  // no escape left: it would creep on in vain (stalled)
     }
+    if (escapes_.creep_is_long(stall_) && escape()) continue;  // a long creep: escaped while it can
   }
   status.iterations = it;
   status.escapes = escapes_.used();

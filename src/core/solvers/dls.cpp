@@ -76,6 +76,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
   double nu = 2.0;
   stuck::StallRule stall(model.cost());
   stuck::Escapes escapes(chain, goals, o, ws);
+  escapes.start_at(model.cost());
   // Stuck at params: escape and start again there (true), or no escape left (false).
   auto escape = [&]() {
     if (!escapes.escape(params, model.cost())) return false;
@@ -150,6 +151,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
         status.reason = TerminationReason::kStalled;  // no escape left: it would creep on in vain
         break;
       }
+      if (escapes.creep_is_long(stall) && escape()) continue;  // a long creep: escaped while it can
       model.linearize(params);
       const double rho = predicted > 0.0 ? gain / predicted : 0.0;
       const double r = 2.0 * rho - 1.0;

@@ -88,6 +88,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
   double fraction = 1.0;  // the last accepted de / e
   stuck::StallRule stall(model.cost());
   stuck::Escapes escapes(chain, goals, o, ws);
+  escapes.start_at(model.cost());
   // Clamped, the target is the best reach of a goal beyond it: being stuck there is no trap.
   if (target_clamped) escapes.disable();
   // Stuck at params: escape and start again there (true), or no escape left (false).

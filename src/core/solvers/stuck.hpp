@@ -5,16 +5,22 @@
 //    mean the solve is stuck. Measured against the best cost rather than the previous iteration's,
 //    so a method whose cost is not monotone (FABRIK on hinge chains) needs no longer window. It
 //    also tells a creep (kStallIterations iterations in a row each gaining < kCreepGain): still
-//    progress, but for the Newton-like solvers mostly a trap approached slowly (see kCreepGain).
+//    progress, but for the Newton-like solvers mostly a trap approached slowly (see kCreepGain);
+//    one kLongCreep long is escaped wherever it is by a query (creep_is_long).
 //  - Escapes: the one stuck -> escape move, and the best pose seen (so an escape that ends worse
 //    never costs the caller anything). A solver calls escape() when the stall rule fires, or on a
 //    condition of its own that means the same (no acceptable step at all, a vanishing gradient, a
-//    sweep that moves nothing); escape() refuses when the budget (kMaxEscapes per solve) is spent
+//    sweep that moves nothing); escape() refuses when the budget (kMaxEscapes per solve, and
+//    kFarEscapes more for a query) is spent
 //    or the goals are provably out of reach (then the stuck pose is the best reach), and the
 //    solver stops as kStalled.
 // When joints rest on their bounds (first and third escape), the move first takes them off (across
 // a full-turn range to the same angle at its other end, else into the range; see unpin()): a
 // minimum the bounds hold is a constrained one that no null-space move leaves.
+// When kFruitlessBeforeFar escapes in a row led back into the minimum they left, the next one of a
+// query (cold_query(): started far from its goals, no restart follows) is far (far()): a
+// deterministic pose spread over the limits, a restart's move inside the solve (issue 16, item 20:
+// a torso + arm with its elbow on the wrong branch). A tracking frame never jumps so.
 // Otherwise the move stays in the null space of J, so to first order it keeps the effectors where
 // they are and changes only the configuration: first a step toward the rest pose (the
 // pseudo-inverse's classic secondary task: Liegeois 1977; Buss 2004, sec. 4), which e.g. untwists a
@@ -56,9 +62,15 @@ constexpr int kStallIterations = 3;
 // 1e-10 per iteration is never reached, and max_iterations runs out). CCD and FABRIK converge
 // linearly and do not ask (the value: docs/solvers.md, "Why these constants").
 constexpr double kCreepGain = 1e-2;
+// Creeping iterations in a row (each gaining < kCreepGain) that are stuck wherever the pose is,
+// for a query (Escapes::creep_is_long).
+constexpr int kLongCreep = 2 * kStallIterations;
 // Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape): the
-// gentle first one and four full ones.
+// gentle first one and four full ones. The tree solvers' budget too.
 constexpr int kMaxEscapes = 5;
+// A chain solve's escapes may go this many beyond kMaxEscapes, for far ones (far()): each restarts
+// the descent from afar, so it needs room of its own after the local moves have failed.
+constexpr int kFarEscapes = 3;
 // An escape pays off when the solve then gets below kEscapeGain times the best cost before it. One
 // that led to a lower but not that much lower minimum found a nearby trap, and so would another:
 // when restarts are allowed (SolverOptions::max_restarts), the solve stops there and the restarts,
@@ -84,6 +96,15 @@ constexpr double kGentleStep = kKickAmplitude;
 // A solve stuck with a combined error of at most this fraction of the chain's length escapes
 // gently first (a tracking frame: the target moved a little since the last pose).
 constexpr double kGentleError = 0.05;
+// Escapes in a row that found nothing kEscapeGain lower (the solve fell back into the minimum it
+// left) after which a query's next escape is a far one (far()): the local moves have shown that this
+// minimum's basin is wider than they reach. A 10-DOF torso + arm whose elbow branch is wrong, a
+// UR5 whose straight elbow holds a full pose 8 mm off: every local move led back (issue 16, item 20).
+constexpr int kFruitlessBeforeFar = 2;
+// A solve that starts farther than this fraction of the chain's length from its goals is a query
+// (Escapes::cold_query), not the next frame of a track: a tracked target held 13 cm beyond what
+// the limits allow starts every frame 10 % of L off (Issue16.OutOfReachBecauseOfTheLimits...).
+constexpr double kQueryError = 0.25;
 
 // ------------------------------------------------------------------------------------------------
 // Reach bounds: when goals provably cannot be met (then a stuck pose is a best reach, not a trap).
@@ -223,6 +244,8 @@ class StallRule {
   // kCreepGain of it: a creep, still progress, so the solver escapes when Escapes::creep_is_stuck()
   // and it can, and otherwise goes on.
   bool creeping() const { return slow_ >= kStallIterations; }
+  // Iterations in a row that each lowered the best cost by less than kCreepGain of it.
+  int creep_length() const { return slow_; }
 
  private:
   double best_ = INFINITY;
@@ -259,6 +282,26 @@ class Escapes {
     return false;
   }
 
+  // Whether a creep is stuck by its length alone, wherever it is: kLongCreep iterations in a row
+  // each gaining < kCreepGain, in a query (cold_query). The Newton-like solvers' steps converge
+  // superlinearly near a regular solution; a creep this long is a singular trap approached along a
+  // flat valley (a UR5's straight elbow holding a full pose 2 cm off for 20 iterations, issue 16,
+  // item 20). The solver escapes it while escapes are left and otherwise creeps on.
+  bool creep_is_long(const StallRule& stall) const {
+    return cold_query() && stall.creep_length() >= kLongCreep;
+  }
+
+  // The cost of the pose the solve starts from (cold_query() asks it); not called: 0, a tracking
+  // frame.
+  void start_at(double cost) { start_error_ = std::sqrt(2.0 * std::max(cost, 0.0)); }
+  // A solve that started farther than kQueryError x L from its goals and that no restart follows:
+  // a query, not a tracking frame. Only such a solve escapes a long creep and escapes far (with the
+  // kFarEscapes more): a tracking frame keeps its continuity (a far pose is a jump: issue 16, items
+  // 14 and 18), and with restarts the outer layer makes the far moves.
+  bool cold_query() const {
+    return !restarts_follow() && start_error_ > kQueryError * chain_.total_length();
+  }
+
   // Keeps params as the best pose when `cost` beats every pose offered before.
   void offer(const double* params, double cost) {
     if (!(cost < best_cost_)) return;
@@ -282,10 +325,11 @@ class Escapes {
     if (ws_.deadline.hit) return false;  // the time budget is spent: the solve stops, not escapes
     if (state_ == kUnknown)
       state_ = provably_out_of_reach(chain_, goals_, options_.position_tolerance) ? kOutOfReach : kReachable;
-    if (state_ == kOutOfReach || used_ >= kMaxEscapes) return false;
+    if (state_ == kOutOfReach || used_ >= kMaxEscapes + (cold_query() ? kFarEscapes : 0)) return false;
     if (restarts_follow() && full_ > 0 && best_cost_ < best_at_escape_ &&
         !(best_cost_ < kEscapeGain * best_at_escape_))
       return false;
+    fruitless_ = used_ > 0 && !(best_cost_ < kEscapeGain * best_at_escape_) ? fruitless_ + 1 : 0;
     best_at_escape_ = best_cost_;
     ++used_;
     const int n = chain_.dof_count();
@@ -302,6 +346,11 @@ class Escapes {
         gentle(active, before, step, params))
       return true;
     ++full_;
+    // A query fallen back kFruitlessBeforeFar times in a row: far from this basin (far()).
+    if (cold_query() && fruitless_ >= kFruitlessBeforeFar) {
+      far(active, params);
+      return true;
+    }
     // 0. Off the bounds: a minimum with joints resting on bounds is a constrained one that no
     //    null-space move leaves (the bound, not J, holds it). Every such joint moves off its bound
     //    (unpin()) and the solve starts again from there - on the first escape and the third.
@@ -368,6 +417,34 @@ class Escapes {
     return false;
   }
   int full_ = 0;  // full escapes made (after the gentle one)
+  int fruitless_ = 0;  // escapes in a row after which the solve found nothing kEscapeGain lower
+  int far_ = 0;  // far escapes made
+  double start_error_ = 0.0;  // sqrt(2 cost) of the start pose (start_at)
+
+  // The far escape: every active hinge and slide goes to a point of a Kronecker sequence over its
+  // range (a different point per far escape, DOF j's coordinate frac(0.5 + k sqrt(p_j)), p_j the
+  // j-th prime), ball joints stay. Deterministic, spread over the limits and unrelated to the
+  // stuck pose - a restart's move inside the solve, so one that no restart follows still leaves
+  // a basin the local moves cannot (restore_best keeps the better pose if it leads nowhere).
+  void far(int active, double* params) {
+    static constexpr double kRootPrimes[] = {1.4142135623730951, 1.7320508075688772, 2.2360679774997898,
+                                             2.6457513110645907, 3.3166247903554,    3.605551275463989,
+                                             4.123105625617661,  4.358898943540674,  4.795831523312719,
+                                             5.385164807134504,  5.5677643628300215, 6.082762530298219};
+    constexpr int kRoots = sizeof(kRootPrimes) / sizeof(kRootPrimes[0]);
+    ++far_;
+    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+      if (chain_.joint_type(i) == JointType::kBall) continue;
+      const int o = chain_.dof_offset(i);
+      const JointLimits& l = chain_.limits(i);
+      const double lo = l.has_hinge_limit ? l.hinge_min : -so3::kPi;
+      const double hi = l.has_hinge_limit ? l.hinge_max : so3::kPi;
+      // DOFs past the 12th reuse a root with a half-period shift.
+      const double u = 0.5 + far_ * kRootPrimes[o % kRoots] + (o / kRoots) * 0.5;
+      params[o] = lo + (hi - lo) * (u - std::floor(u));
+    }
+    project_to_limits(chain_, params);
+  }
   double best_at_escape_ = INFINITY;  // best_cost_ when the last escape was made
 
   // J (top rows of ws.jacobian) and the weighted residual (ws.residual) at params.
