@@ -313,7 +313,9 @@ void Bfgs::accept(bool allow_update) {
     fresh_ = true;
     return;
   }
-  if (!allow_update || kept_.projected) {
+  // The O(n^2) update is skipped once the budget is spent (the loop stops at its next check): on
+  // hundreds of DOFs it alone costs as much as the line search before it.
+  if (!allow_update || kept_.projected || ws_.deadline.spent()) {
     fresh_ = true;
     return;
   }

@@ -195,9 +195,11 @@ struct PointPair {
 //
 // Needs ws filled by forward_kinematics(params) on entry (the "old" pose: the parts of the chain
 // after joint j are moved rigidly with it). Leaves ws stale; call forward_kinematics() after.
+// `deadline` (optional): checked every Deadline::kJointsPerCheck joints; once spent, the joints
+// after stay as they were (moved rigidly with the ones before: a valid pose).
 inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dvec3* desired,
                                 double max_step_angle, double* params,
-                                const PointPair* last_link_point = nullptr) {
+                                const PointPair* last_link_point = nullptr, Deadline* deadline = nullptr) {
   const int n = chain.joint_count();
   const double tiny = 1e-12 * chain.total_length();
   const glm::dvec3 root = chain.root_in_base();
@@ -208,6 +210,7 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
   glm::dvec3 origin = root;               // o_j of the updated chain
   glm::dquat parent(1.0, 0.0, 0.0, 0.0);  // Q_{j-1} of the updated chain
   for (int j = 0; j < n; ++j) {
+    if (deadline && deadline->spent_after_joints(j)) break;
     if (j > 0) {
       origin += parent * chain.offset_translation(j);
       sums.add(old_point(j) - root, desired[j] - root, -1.0);  // now k = j+1..n

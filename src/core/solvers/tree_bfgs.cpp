@@ -266,7 +266,7 @@ class TreeBfgs {
       fresh_ = true;
       return;
     }
-    if (kept_.projected) {
+    if (kept_.projected || ws_.deadline.spent()) {  // spent: the loop stops next (bfgs.cpp's reason)
       fresh_ = true;
       return;
     }
