@@ -218,13 +218,15 @@ class Bfgs {
     zero_frozen(ws_.step);
   }
 
-  // ws.step = -H g with frozen DOFs removed from g and from the step.
-  void quasi_newton_direction() {
+  // ws.step = -H g with frozen DOFs removed from g and from the step. False when the time budget
+  // stopped the product (then there is no step).
+  bool quasi_newton_direction() {
     ws_.dof_vec_b = ws_.gradient;
     zero_frozen(ws_.dof_vec_b);
-    symmetric_product(ws_.dof_square, ws_.dof_vec_b, ws_.step);
+    if (!symmetric_product(ws_.dof_square, ws_.dof_vec_b, ws_.step, &ws_.deadline)) return false;
     ws_.step = -ws_.step;
     zero_frozen(ws_.step);
+    return true;
   }
 
   bool line_search(double alpha_init, double alpha_max);
@@ -324,7 +326,7 @@ void Bfgs::accept(bool allow_update) {
 
 // Eq. (6.17) (bfgs_common.hpp) with the pair in ws.step, ws.gradient_trial.
 void Bfgs::update_inverse_hessian() {
-  bfgs::update_inverse_hessian(ws_.dof_square, ws_.step, ws_.gradient_trial, ws_.dof_vec_b, fresh_);
+  bfgs::update_inverse_hessian(ws_.dof_square, ws_.step, ws_.gradient_trial, ws_.dof_vec_b, fresh_, &ws_.deadline);
 }
 
 SolverStatus Bfgs::run() {
@@ -356,7 +358,7 @@ SolverStatus Bfgs::run() {
     if (signature != active_set_) fresh_ = true;
     active_set_ = signature;
     if (!fresh_) {
-      quasi_newton_direction();
+      if (!quasi_newton_direction()) break;  // the time budget: kMaxIterations
       // H can lose positive definiteness numerically; a non-descent direction restarts the cycle.
       if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = true;
     }

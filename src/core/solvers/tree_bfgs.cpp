@@ -224,12 +224,14 @@ class TreeBfgs {
     zero_frozen(ws_.step);
   }
 
-  void quasi_newton_direction() {
+  // False when the time budget stopped the O(n^2) product (bfgs.cpp's reason).
+  bool quasi_newton_direction() {
     ws_.dof_vec_b = ws_.gradient;
     zero_frozen(ws_.dof_vec_b);
-    bfgs::symmetric_product(ws_.dof_square, ws_.dof_vec_b, ws_.step);
+    if (!bfgs::symmetric_product(ws_.dof_square, ws_.dof_vec_b, ws_.step, &ws_.deadline)) return false;
     ws_.step = -ws_.step;
     zero_frozen(ws_.step);
+    return true;
   }
 
   bool escape() {
@@ -270,7 +272,7 @@ class TreeBfgs {
       fresh_ = true;
       return;
     }
-    bfgs::update_inverse_hessian(ws_.dof_square, ws_.step, ws_.gradient_trial, ws_.dof_vec_b, fresh_);
+    bfgs::update_inverse_hessian(ws_.dof_square, ws_.step, ws_.gradient_trial, ws_.dof_vec_b, fresh_, &ws_.deadline);
   }
 
   const Tree& tree_;
@@ -315,7 +317,7 @@ TreeSolverStatus TreeBfgs::run() {
     if (signature != active_set_) fresh_ = true;
     active_set_ = signature;
     if (!fresh_) {
-      quasi_newton_direction();
+      if (!quasi_newton_direction()) break;  // the time budget: kMaxIterations
       if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = true;
     }
     const bool was_fresh = fresh_;
