@@ -74,8 +74,8 @@ TEST(TimeBudget, NeverOverrunsByMoreThanOneIteration) {
         // pseudo-inverse before each linearisation too (the pseudo-inverse also between the halvings
         // of one iteration, many FK passes each), BFGS before its O(n^2) inverse-Hessian passes,
         // CCD and FABRIK every Deadline::kJointsPerCheck joints of a sweep (100 here). So the checks
-        // are spread over fewer iterations, at least one of which ran.
-        EXPECT_GE(r.iterations, 1) << to_string(kind);
+        // are spread over fewer iterations than checks (BFGS's first Gauss-Newton step alone reads
+        // the clock once per row of J J^T, so it may stop inside it with none done).
         EXPECT_LE(r.iterations, checks - 1) << to_string(kind);
       } else {
         EXPECT_NE(r.reason, TerminationReason::kMaxIterations) << to_string(kind);
