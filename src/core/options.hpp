@@ -42,12 +42,14 @@ struct SolverOptions {
   // Largest rotation a single iteration may apply to one joint (rad); 0 = no cap.
   double max_step_angle = 0.0;
   // Wall-clock budget of one solve (microseconds, >= 0; 0 = none). Checked on the steady clock
-  // before every iteration (the first included) and inside the long inner loops (the
-  // pseudo-inverse's halvings, BFGS's line-search steps, the sweeps of eigen-decompositions of 9 x 9
-  // and up), so a solve overruns it by at most one such step plus the exit work: tested at
-  // <= 1.1 x budget + 20 us of CPU time (docs/solvers.md, "Time budget and the safety cap"). The
-  // result then has reason kMaxIterations (or kUnreachable for a provable best reach) and
-  // budget_exhausted = true, with the best pose reached so far.
+  // before every iteration (the first included), before each linearisation of DLS and the
+  // pseudo-inverse, and inside the long inner loops (the pseudo-inverse's halvings, BFGS's
+  // line-search steps and its O(n^2) passes every 64 columns, CCD's and FABRIK's sweeps every 16
+  // joints, the sweeps of eigen-decompositions of 9 x 9 and up, the escapes), so a solve overruns
+  // it by at most one such piece plus the exit work: measured against 1.1 x budget + 20 us of CPU
+  // time by bench/budget_bench.cpp (`scripts/bench --budget`; docs/solvers.md, "Time budget and
+  // the safety cap"). The result then has reason kMaxIterations (or kUnreachable for a provable
+  // best reach) and budget_exhausted = true, with the best pose reached so far.
   double time_budget_usec = 0.0;
   // A safety cap on every solve's wall-clock time (microseconds, >= 0; 0 = none), on whether or not
   // time_budget_usec is set: one misconfigured solve (the pseudo-inverse on 200 bones at 1,000

@@ -49,10 +49,10 @@ TEST(TimeBudget, TinyBudgetStopsBeforeTheFirstIteration) {
   }
 }
 
-// The budget is checked before every iteration, the first included (the pseudo-inverse: also
-// between halvings; BFGS between line-search steps): with every check costing kTick of fake time,
-// a budget of B stops the solve at the ceil(B / kTick)-th check, after one iteration fewer - never
-// more than 10 % + one check over the budget - and reports it.
+// The budget is checked before every iteration, the first included, and within the long ones
+// (see below): with every check costing kTick of fake time, a budget of B stops the solve at the
+// ceil(B / kTick)-th check, after fewer iterations than checks - never more than 10 % + one check
+// over the budget - and reports it.
 TEST(TimeBudget, NeverOverrunsByMoreThanOneIteration) {
   HardProblem hp;
   Workspace ws(hp.chain, 1);
@@ -70,15 +70,13 @@ TEST(TimeBudget, NeverOverrunsByMoreThanOneIteration) {
         ++exhausted;
         EXPECT_GE(spent, budget) << to_string(kind);
         const int checks = static_cast<int>(std::ceil(budget / kTick));
-        if (kind == SolverKind::kJacobianPinv) {
-          // It also checks between the halvings of one iteration (many FK passes each), so the
-          // checks are spread over fewer iterations.
-          EXPECT_GE(r.iterations, 1) << to_string(kind);
-          EXPECT_LE(r.iterations, checks) << to_string(kind);
-        } else {
-          // The first check comes before the first iteration (issue 16, item 6).
-          EXPECT_EQ(r.iterations, checks - 1) << to_string(kind);
-        }
+        // Every solver checks more than once per iteration (issue 16, item 6): DLS and the
+        // pseudo-inverse before each linearisation too (the pseudo-inverse also between the halvings
+        // of one iteration, many FK passes each), BFGS before its O(n^2) inverse-Hessian passes,
+        // CCD and FABRIK every Deadline::kJointsPerCheck joints of a sweep (100 here). So the checks
+        // are spread over fewer iterations than checks (BFGS's first Gauss-Newton step alone reads
+        // the clock once per row of J J^T, so it may stop inside it with none done).
+        EXPECT_LE(r.iterations, checks - 1) << to_string(kind);
       } else {
         EXPECT_NE(r.reason, TerminationReason::kMaxIterations) << to_string(kind);
       }

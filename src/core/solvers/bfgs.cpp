@@ -194,11 +194,13 @@ class Bfgs {
   // w = (J J^T + mu I)^-1 b for J = ws.jacobian's rows, b = ws.goal_vec (solved in place) by a
   // plain Cholesky factorisation of ws.goal_square (core/math/linalg.hpp): m <= 3 * max_goals is
   // tiny, and Eigen's decompositions would allocate their own storage.
-  void solve_normal_equations() {
+  // False when the time budget stopped it (checked once per row of J J^T: tree_bfgs.cpp's reason).
+  bool solve_normal_equations() {
     auto J = ws_.jacobian.topRows(rows_);
     auto A = ws_.goal_square.topLeftCorner(rows_, rows_);
     double trace = 0.0;
     for (int a = 0; a < rows_; ++a) {
+      if (a > 0 && ws_.deadline.spent()) return false;
       for (int b = 0; b <= a; ++b) A(a, b) = J.row(a).dot(J.row(b));
       trace += A(a, a);
     }
@@ -208,25 +210,30 @@ class Bfgs {
     linalg::cholesky_factor(A, rows_, mu);
     auto b = ws_.goal_vec.head(rows_);
     linalg::cholesky_solve(A, b, rows_);
+    return true;
   }
 
   // ws.step = J^T (J J^T + mu I)^-1 r at x: the damped minimum-norm Gauss-Newton step.
-  void gauss_newton_direction() {
+  // False when the time budget stopped it (then there is no step).
+  bool gauss_newton_direction() {
     jacobian_at_x();
     // ws.residual belongs to the last evaluated point, which is x after jacobian_at_x().
     ws_.goal_vec.head(rows_) = ws_.residual.head(rows_);
-    solve_normal_equations();
+    if (!solve_normal_equations()) return false;
     ws_.step.noalias() = ws_.jacobian.topRows(rows_).transpose() * ws_.goal_vec.head(rows_);
     zero_frozen(ws_.step);
+    return true;
   }
 
-  // ws.step = -H g with frozen DOFs removed from g and from the step.
-  void quasi_newton_direction() {
+  // ws.step = -H g with frozen DOFs removed from g and from the step. False when the time budget
+  // stopped the product (then there is no step).
+  bool quasi_newton_direction() {
     ws_.dof_vec_b = ws_.gradient;
     zero_frozen(ws_.dof_vec_b);
-    symmetric_product(ws_.dof_square, ws_.dof_vec_b, ws_.step);
+    if (!symmetric_product(ws_.dof_square, ws_.dof_vec_b, ws_.step, &ws_.deadline)) return false;
     ws_.step = -ws_.step;
     zero_frozen(ws_.step);
+    return true;
   }
 
   bool line_search(double alpha_init, double alpha_max);
@@ -315,7 +322,9 @@ void Bfgs::accept(bool allow_update) {
     fresh_ = true;
     return;
   }
-  if (!allow_update || kept_.projected) {
+  // The O(n^2) update is skipped once the budget is spent (the loop stops at its next check): on
+  // hundreds of DOFs it alone costs as much as the line search before it.
+  if (!allow_update || kept_.projected || ws_.deadline.spent()) {
     fresh_ = true;
     return;
   }
@@ -324,7 +333,7 @@ void Bfgs::accept(bool allow_update) {
 
 // Eq. (6.17) (bfgs_common.hpp) with the pair in ws.step, ws.gradient_trial.
 void Bfgs::update_inverse_hessian() {
-  bfgs::update_inverse_hessian(ws_.dof_square, ws_.step, ws_.gradient_trial, ws_.dof_vec_b, fresh_);
+  bfgs::update_inverse_hessian(ws_.dof_square, ws_.step, ws_.gradient_trial, ws_.dof_vec_b, fresh_, &ws_.deadline);
 }
 
 SolverStatus Bfgs::run() {
@@ -357,11 +366,11 @@ SolverStatus Bfgs::run() {
     if (signature != active_set_) fresh_ = true;
     active_set_ = signature;
     if (!fresh_) {
-      quasi_newton_direction();
+      if (!quasi_newton_direction()) break;  // the time budget: kMaxIterations
       // H can lose positive definiteness numerically; a non-descent direction restarts the cycle.
       if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = true;
     }
-    if (fresh_) gauss_newton_direction();
+    if (fresh_ && !gauss_newton_direction()) break;  // the time budget: kMaxIterations
     f0_ = err_.cost;
     dphi0_ = ws_.gradient.dot(ws_.step);
     const double rot = max_rotation(ws_.step);

@@ -56,6 +56,7 @@ double sweep(const Chain& chain, Span<const Goal> goals, const SolverOptions& op
   geometric::track_goals(chain, goals, ws, tracked);
   double largest = 0.0;
   for (int j = n - 1; j >= 0; --j) {
+    if (ws.deadline.spent_after_joints(n - 1 - j)) break;  // the time budget, within a long sweep
     const glm::dvec3 origin = ws.joint_origins[j];
     const glm::dquat applied = geometric::fit_joint(chain, goals, tracked, j, origin, ws.joint_pre_rotations[j],
                                                     options.max_step_angle, params);
@@ -86,7 +87,8 @@ SolverStatus solve_ccd(const Chain& chain, Span<const Goal> goals, const SolverO
     double moved = INFINITY;
     if (status.iterations == 0 && progress.out_of_reach()) {
       for (int k = 1; k <= n; ++k) ws.points_aim[k] = goals[0].target_position;
-      geometric::aim_chain_at_points(chain, ws, ws.points_aim.data(), options.max_step_angle, params);
+      geometric::aim_chain_at_points(chain, ws, ws.points_aim.data(), options.max_step_angle, params, nullptr,
+                                     &ws.deadline);
     } else {
       moved = sweep(chain, goals, options, ws, tracked, params);
     }

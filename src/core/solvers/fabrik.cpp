@@ -187,8 +187,8 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
       axis_point.desired_in_base = ws.points_aim[n - 1] + desired_axis_offset;
     }
     geometric::aim_chain_at_points(chain, ws, ws.points_aim.data(), options.max_step_angle, params,
-                                   fit_last_axis ? &axis_point : nullptr);
-    if (tip_frame_goals) {  // final alignment of the last joint (see above)
+                                   fit_last_axis ? &axis_point : nullptr, &ws.deadline);
+    if (tip_frame_goals && !ws.deadline.hit) {  // final alignment of the last joint (see above)
       forward_kinematics(chain, params, ws);
       geometric::track_goals(chain, goals, ws, tracked);
       geometric::fit_joint(chain, goals, tracked, n - 1, ws.joint_origins[n - 1], ws.joint_pre_rotations[n - 1],

@@ -195,9 +195,11 @@ struct PointPair {
 //
 // Needs ws filled by forward_kinematics(params) on entry (the "old" pose: the parts of the chain
 // after joint j are moved rigidly with it). Leaves ws stale; call forward_kinematics() after.
+// `deadline` (optional): checked every Deadline::kJointsPerCheck joints; once spent, the joints
+// after stay as they were (moved rigidly with the ones before: a valid pose).
 inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dvec3* desired,
                                 double max_step_angle, double* params,
-                                const PointPair* last_link_point = nullptr) {
+                                const PointPair* last_link_point = nullptr, Deadline* deadline = nullptr) {
   const int n = chain.joint_count();
   const double tiny = 1e-12 * chain.total_length();
   const glm::dvec3 root = chain.root_in_base();
@@ -208,6 +210,7 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
   glm::dvec3 origin = root;               // o_j of the updated chain
   glm::dquat parent(1.0, 0.0, 0.0, 0.0);  // Q_{j-1} of the updated chain
   for (int j = 0; j < n; ++j) {
+    if (deadline && deadline->spent_after_joints(j)) break;
     if (j > 0) {
       origin += parent * chain.offset_translation(j);
       sums.add(old_point(j) - root, desired[j] - root, -1.0);  // now k = j+1..n
@@ -398,10 +401,14 @@ struct BestPose {
 // seen (returned at the end) and the shared stuck rules (stuck.hpp). Stuck: the stall rule, or a
 // fixed point (an iteration turning no parameter more than kStillAngle, e.g. a straight chain
 // pulled along itself, where neither method moves any joint); either calls the shared escape, and
-// with none left the solve stops as stalled.
+// with none left the solve stops as stalled. A limb held straight by a hinge on its bound
+// (straight_at_bound_hinge) asks for the escape too, but one refused there is no stop.
 class Progress {
  public:
   static constexpr double kStillAngle = 1e-12;  // rad
+  // The bones on both sides of a hinge are collinear when the sine of their angle is below this:
+  // a hinge on its bound holds them exactly straight (a knee on its limit 0), to rounding.
+  static constexpr double kStraightSine = 1e-9;
 
   // Measures the start pose (FK into ws) and decides whether the target is a single tip position
   // goal at or beyond full reach (the solvers straighten toward it first).
@@ -433,14 +440,24 @@ class Progress {
       return true;
     }
     const bool stalled = stall_.stalled_after(cost_, options_.stall_tolerance);
-    if (moved <= kStillAngle || stalled) {
-      if (!escapes_.escape(params, cost_)) {
+    const bool still = moved <= kStillAngle || stalled;
+    // A straight limb whose hinge rests on its bound, the goals unmet and not beyond reach: both
+    // methods bend a hinge only by where the points after it lie, and on a straight limb those lie
+    // on the hinge's own line, so a fold the bound forbids is all they ask for (clipped to the
+    // bound) while the straight limb swings toward the target, slower with every sweep and never
+    // stalling within 64 (a tracked leg stayed straight, 153-315 mm off: issue 16, item 13). The
+    // escape folds the hinge the way its bound allows. Refused (none left, or the goals provably
+    // out of reach), the sweeps go on.
+    const bool pinned_straight = !still && !out_of_reach_ && straight_at_bound_hinge(params);
+    if (still || pinned_straight) {
+      if (escapes_.escape(params, cost_)) {
+        forward_kinematics(chain_, params, ws_);
+        cost_ = measure_goals(chain_, goals_, ws_).cost;
+        stall_.reset(cost_);
+      } else if (still) {
         reason = TerminationReason::kStalled;
         return true;
       }
-      forward_kinematics(chain_, params, ws_);
-      cost_ = measure_goals(chain_, goals_, ws_).cost;
-      stall_.reset(cost_);
     }
     if (ws_.deadline.spent()) {
       reason = TerminationReason::kMaxIterations;  // the time budget
@@ -456,6 +473,26 @@ class Progress {
   }
 
  private:
+  // Some bending hinge j >= 1 rests on a bound with the bone before it and the one after it (to the
+  // next joint or the tip) collinear, pointing the same way (after forward_kinematics()). A hinge
+  // whose axis runs along its next bone twists it rather than bends it: not a straight limb's knee.
+  bool straight_at_bound_hinge(const double* params) const {
+    const int n = chain_.joint_count();
+    for (int j = 1; j < n; ++j) {
+      if (chain_.joint_type(j) != JointType::kHinge || !chain_.limits(j).has_hinge_limit) continue;
+      if (!hinge_blocked(chain_, j, params, -1.0) && !hinge_blocked(chain_, j, params, 1.0)) continue;
+      const glm::dvec3 before = ws_.joint_origins[j] - ws_.joint_origins[j - 1];
+      const glm::dvec3 after = (j + 1 < n ? ws_.joint_origins[j + 1] : ws_.tip) - ws_.joint_origins[j];
+      const double lb = glm::length(before), la = glm::length(after);
+      if (!(lb > 0.0) || !(la > 0.0) || glm::dot(before, after) <= 0.0) continue;
+      if (glm::length(glm::cross(before, after)) > kStraightSine * lb * la) continue;
+      const glm::dvec3 axis = hinge_axis_in_base(chain_, j, ws_.joint_pre_rotations[j]);
+      if (std::abs(glm::dot(axis, after)) > 0.5 * la) continue;
+      return true;
+    }
+    return false;
+  }
+
   const Chain& chain_;
   Span<const Goal> goals_;
   const SolverOptions& options_;

@@ -84,6 +84,11 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     status.reason = TerminationReason::kConverged;
     return status;
   }
+  // The time budget before the first linearisation too (dls.cpp's reason).
+  if (ws.deadline.spent()) {
+    status.reason = TerminationReason::kMaxIterations;
+    return status;
+  }
   model.linearize(params);
   double fraction = 1.0;  // the last accepted de / e
   stuck::StallRule stall(model.cost());
@@ -206,6 +211,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
       status.reason = TerminationReason::kStalled;
       break;
     }
+    if (ws.deadline.spent()) break;  // before the next linearisation, as before the first
     model.linearize(params);
     if (singular_stationary()) escape();
   }

@@ -322,7 +322,10 @@ class Escapes {
   // kinematics stale: the caller evaluates the new pose.
   bool escape(double* params, double cost) {
     offer(params, cost);
-    if (ws_.deadline.hit) return false;  // the time budget is spent: the solve stops, not escapes
+    // The time budget is spent: the solve stops, not escapes. Read here, not only remembered: an
+    // escape costs several FK and Jacobian passes, and DLS and the pseudo-inverse may call one
+    // before their first iteration's check.
+    if (ws_.deadline.spent()) return false;
     if (state_ == kUnknown)
       state_ = provably_out_of_reach(chain_, goals_, options_.position_tolerance) ? kOutOfReach : kReachable;
     if (state_ == kOutOfReach || used_ >= kMaxEscapes + (cold_query() ? kFarEscapes : 0)) return false;

@@ -38,6 +38,7 @@ double sweep(const Tree& tree, const TreeProblem& problem, const SolverOptions& 
   }
   double largest = 0.0;
   for (int j = tree.joint_count() - 1; j >= 0; --j) {
+    if (ws.deadline.spent_after_joints(tree.joint_count() - 1 - j)) break;  // the time budget, within a sweep
     const glm::dvec3 origin = ws.joint_origins[j];
     const glm::dquat& pre = ws.joint_pre_rotations[j];
     double* p = params + tree.dof_offset(j);

@@ -177,6 +177,8 @@ void TreeFabrik::convert(double* params) {
   const glm::dvec3* c = ws_.points_backward.data();
   const int points = joints_ + tree_.effector_count();
   for (int j = 0; j < joints_; ++j) {
+    // The time budget within a long conversion: the joints after keep their params (FK follows).
+    if (ws_.deadline.spent_after_joints(j)) break;
     const int p = tree_.parent(j);
     const glm::dquat parent_q = p < 0 ? geometric::kIdentity : ws_.joint_orientations[p];
     glm::dvec3 origin = p < 0 ? tree_.offset_in_parent(j) : ws_.joint_origins[p] + parent_q * tree_.offset_in_parent(j);
@@ -289,7 +291,7 @@ double TreeFabrik::iterate(double* params) {
   forward_stage();
   backward_stage();
   convert(params);  // leaves ws holding the new pose's frames
-  if (frame_goals_) align_frames(params);
+  if (frame_goals_ && !ws_.deadline.hit) align_frames(params);
   double moved = 0.0;
   for (int d = 0; d < dofs; ++d) moved = std::max(moved, std::abs(params[d] - ws_.params_trial[d]));
   return moved;
