@@ -63,6 +63,7 @@ void IKBody::register_class(gdx::ClassRecord& record) {
              "set_joints", "get_joints");
   b.group("Solver", "");
   IKModifier::bind_solver_settings(b, "IKBody.Solver", /*trees_only=*/true);
+  IKModifier::bind_time_budget(b);
   IKModifier::bind_deterministic(b);
 
   b.virtual_method("_process_modification_with_delta",
@@ -129,6 +130,7 @@ gdx::Dictionary IKBody::get_last_result() const {
   put("usable", gdx::Variant(is_last_usable()));
   put("iterations", gdx::Variant(get_last_iterations()));
   put("usec", gdx::Variant(get_last_usec()));
+  put("budget_exhausted", gdx::Variant(last_.summary.budget_exhausted));
   put("position_error", gdx::Variant(get_last_position_error()));
   put("orientation_error", gdx::Variant(get_last_orientation_error()));
   put("message", gdx::Variant(last_.summary.message.c_str()));

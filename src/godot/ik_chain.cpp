@@ -82,8 +82,6 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   b.method("get_goals", &IKChain::get_goals, {}, {nullptr, "IKChainGoal"});
   b.method("set_soft_reach", &IKChain::set_soft_reach, {"distance"});
   b.method("get_soft_reach", &IKChain::get_soft_reach);
-  b.method("set_time_budget_usec", &IKChain::set_time_budget_usec, {"usec"});
-  b.method("get_time_budget_usec", &IKChain::get_time_budget_usec);
   b.method("set_max_restarts", &IKChain::set_max_restarts, {"restarts"});
   b.method("get_max_restarts", &IKChain::get_max_restarts);
   b.method("set_restart_seed", &IKChain::set_restart_seed, {"seed"});
@@ -148,9 +146,7 @@ void IKChain::register_class(gdx::ClassRecord& record) {
   IKModifier::bind_solver_settings(b, "IKChain.Solver", /*trees_only=*/false);
   b.property({"soft_reach", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0,1,0.001,or_greater,suffix:m"},
              "set_soft_reach", "get_soft_reach");
-  b.property({"time_budget_usec", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE,
-              "0,100000,1,or_greater,suffix:us"},
-             "set_time_budget_usec", "get_time_budget_usec");
+  IKModifier::bind_time_budget(b);
   b.property({"max_restarts", GDEXTENSION_VARIANT_TYPE_INT, hint::PROPERTY_HINT_RANGE, "0,100,1"},
              "set_max_restarts", "get_max_restarts");
   b.property({"restart_seed", GDEXTENSION_VARIANT_TYPE_INT}, "set_restart_seed", "get_restart_seed");
@@ -270,13 +266,6 @@ void IKChain::set_soft_reach(double units) {
   if (used != units) report_clamped(kClass, "soft_reach", "[0, 1e+06] (skeleton units; 0 = off)", units, used);
   soft_reach_ = used;
   options_.soft_reach = soft_reach_;
-}
-
-void IKChain::set_time_budget_usec(double usec) {
-  const double used = std::isnan(usec) ? time_budget_usec_ : std::clamp(usec, 0.0, 1e9);
-  if (used != usec) report_clamped(kClass, "time_budget_usec", "[0, 1e+09] us (0 = none)", usec, used);
-  time_budget_usec_ = used;
-  options_.time_budget_usec = time_budget_usec_;
 }
 
 void IKChain::set_max_restarts(int64_t n) {

@@ -78,8 +78,6 @@ class IKChain : public IKModifier {
   gdx::Array get_goals() const { return goals_; }
   void set_soft_reach(double units);
   double get_soft_reach() const { return soft_reach_; }
-  void set_time_budget_usec(double usec);
-  double get_time_budget_usec() const { return time_budget_usec_; }
   void set_max_restarts(int64_t n);
   int64_t get_max_restarts() const { return max_restarts_; }
   void set_restart_seed(int64_t seed);
@@ -176,7 +174,6 @@ class IKChain : public IKModifier {
   gdx::NodePath pole_target_;
   gdx::Array joints_;
   gdx::Array goals_;
-  double time_budget_usec_ = 0.0;
   double soft_reach_ = 0.0;  // skeleton units; 0 = off
   int64_t max_restarts_ = 0;
   int64_t restart_seed_ = 1;

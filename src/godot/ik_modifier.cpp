@@ -86,6 +86,13 @@ void IKModifier::set_tolerance(double units) {
   options_.position_tolerance = tolerance_;
 }
 
+void IKModifier::set_time_budget_usec(double usec) {
+  const double used = std::isnan(usec) ? time_budget_usec_ : std::clamp(usec, 0.0, 1e9);
+  if (used != usec) report_clamped(traits_.class_name, "time_budget_usec", "[0, 1e+09] us (0 = none)", usec, used);
+  time_budget_usec_ = used;
+  options_.time_budget_usec = time_budget_usec_;
+}
+
 void IKModifier::set_orientation_tolerance(double radians) {
   const double used = std::isnan(radians) ? orientation_tolerance_ : std::clamp(radians, 1e-6, 1.0);
   if (used != radians) report_clamped(traits_.class_name, "orientation_tolerance", "[1e-06, 1] rad", radians, used);

@@ -52,6 +52,8 @@ class IKModifier {
   double get_orientation_tolerance() const { return orientation_tolerance_; }
   void set_deterministic(bool on);
   bool is_deterministic() const { return deterministic_; }
+  void set_time_budget_usec(double usec);
+  double get_time_budget_usec() const { return time_budget_usec_; }
 
   // ---- engine callbacks
   void process_modification(double delta);
@@ -66,6 +68,9 @@ class IKModifier {
   static void bind_solver_settings(gdx::ClassBuilder<C>& b, const char* solver_enum, bool trees_only);
   template <class C>
   static void bind_deterministic(gdx::ClassBuilder<C>& b);
+  // time_budget_usec (SolverOptions::time_budget_usec: a frame's solve stops once it is spent).
+  template <class C>
+  static void bind_time_budget(gdx::ClassBuilder<C>& b);
   // root_bone, with its bone-name drop-down (validate_property()).
   template <class C>
   static void bind_root_bone(gdx::ClassBuilder<C>& b);
@@ -109,6 +114,7 @@ class IKModifier {
   double tolerance_ = kDefaultTolerance;
   double orientation_tolerance_ = kDefaultOrientationTolerance;
   bool deterministic_ = false;
+  double time_budget_usec_ = 0.0;
   SolverOptions options_;
 };
 
@@ -143,6 +149,15 @@ void IKModifier::bind_deterministic(gdx::ClassBuilder<C>& b) {
   b.method("set_deterministic", &IKModifier::set_deterministic, {"enabled"});
   b.method("is_deterministic", &IKModifier::is_deterministic);
   b.property({"deterministic", GDEXTENSION_VARIANT_TYPE_BOOL}, "set_deterministic", "is_deterministic");
+}
+
+template <class C>
+void IKModifier::bind_time_budget(gdx::ClassBuilder<C>& b) {
+  b.method("set_time_budget_usec", &IKModifier::set_time_budget_usec, {"usec"});
+  b.method("get_time_budget_usec", &IKModifier::get_time_budget_usec);
+  b.property({"time_budget_usec", GDEXTENSION_VARIANT_TYPE_FLOAT, gdx::gen::PropertyHint::PROPERTY_HINT_RANGE,
+              "0,100000,1,or_greater,suffix:us"},
+             "set_time_budget_usec", "get_time_budget_usec");
 }
 
 template <class C>

@@ -338,6 +338,46 @@ func test_setup_humanoid_without_the_optional_spine_bones() -> void:
 	check(_origin(skel, cap, "Hips").y < hips.origin.y - 0.05, "the hips went down")
 
 
+# time_budget_usec (shared with IKChain): a budget far below one iteration stops the solve at its
+# first clock check; the result says so, the pose written is finite, and a negative budget is
+# clamped to 0 (no limit) with a message naming the property.
+func test_time_budget_stops_the_solve_and_says_so() -> void:
+	var skel := Body.humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	check(body.setup_humanoid(), "set up")
+	var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
+	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
+	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
+	var lhand := skel.get_bone_global_pose(skel.find_bone("LeftHand"))
+	var targets := {"Hips": hips.translated(Vector3(0, -0.15, 0)), "LeftFoot": lfoot, "RightFoot": rfoot,
+			"LeftHand": lhand.translated(Vector3(-0.1, -0.3, 0.2))}
+	for e in body.effectors:
+		var bone := String((e as IKBodyEffector).bone_name)
+		if targets.has(bone):
+			e.target = body.get_path_to(_target("T" + bone, targets[bone]))
+	body.max_iterations = 1000
+	body.time_budget_usec = 0.001
+	check_near(body.time_budget_usec, 0.001, 1e-12, "time_budget_usec stored")
+	var cap := await _capture(skel, body)
+	if not check(not cap.is_empty(), "skeleton_updated came"):
+		return
+	var r := body.get_last_result()
+	check(r["budget_exhausted"], "budget_exhausted: %s" % [r])
+	check_eq(r["reason"], "max_iterations", "a spent budget reads as max_iterations")
+	check(r["iterations"] < 1000, "stopped well before max_iterations: %d" % r["iterations"])
+	check(_all_finite(cap), "every bone pose finite")
+	body.time_budget_usec = 0.0
+	cap = await _capture(skel, body)
+	r = body.get_last_result()
+	check(not r["budget_exhausted"], "no budget: not exhausted")
+	check_eq(r["reason"], "converged", "no budget: converged")
+	expect_error("time_budget_usec.*clamped|time_budget_usec", 1)
+	body.time_budget_usec = -5.0
+	check_eq(body.time_budget_usec, 0.0, "a negative budget is clamped to 0 (no limit)")
+
+
 # ------------------------------------------------------------------ blending with animation
 
 # The incoming pose is the animation's (here set by script, as an AnimationPlayer would each frame):
