@@ -27,3 +27,30 @@ static func effector(bone: String, target: Node3D, priority := 1, position_weigh
 	if target != null:
 		e.target = NodePath("../../" + String(target.name))
 	return e
+
+
+## The skeleton's global and local bone poses (skeleton at the origin: skeleton space = world) at
+## the next skeleton_updated, with the body's result (the test's `tree` waits the frames).
+## `idle_ok`: a body that writes nothing leaves the skeleton clean, so no skeleton_updated comes;
+## the pose is then read after a few frames.
+static func capture(tree: SceneTree, skel: Skeleton3D, body: IKBody, idle_ok := false) -> Dictionary:
+	var cap := {}
+	var grab := func():
+		if cap.is_empty():
+			var globals := []
+			var locals := []
+			for i in skel.get_bone_count():
+				globals.append(skel.get_bone_global_pose(i))
+				locals.append(skel.get_bone_pose(i))
+			cap["globals"] = globals
+			cap["locals"] = locals
+			cap["result"] = body.get_last_result()
+	skel.skeleton_updated.connect(grab)
+	var waited := 0
+	while cap.is_empty() and waited < 4:
+		await tree.process_frame
+		waited += 1
+	skel.skeleton_updated.disconnect(grab)
+	if cap.is_empty() and idle_ok:
+		grab.call()
+	return cap

@@ -25,30 +25,9 @@ func _target(name: String, t: Transform3D) -> Node3D:
 	return n
 
 
-## The skeleton's global and local bone poses (skeleton at the origin: skeleton space = world) at
-## the next skeleton_updated, with the body's result. `idle_ok`: a body that writes nothing leaves
-## the skeleton clean, so no skeleton_updated comes; the pose is then read after a few frames.
+## The poses at the next skeleton_updated (lib/body.gd capture()).
 func _capture(skel: Skeleton3D, body: IKBody, idle_ok := false) -> Dictionary:
-	var cap := {}
-	var grab := func():
-		if cap.is_empty():
-			var globals := []
-			var locals := []
-			for i in skel.get_bone_count():
-				globals.append(skel.get_bone_global_pose(i))
-				locals.append(skel.get_bone_pose(i))
-			cap["globals"] = globals
-			cap["locals"] = locals
-			cap["result"] = body.get_last_result()
-	skel.skeleton_updated.connect(grab)
-	var waited := 0
-	while cap.is_empty() and waited < 4:
-		await process_frame
-		waited += 1
-	skel.skeleton_updated.disconnect(grab)
-	if cap.is_empty() and idle_ok:
-		grab.call()
-	return cap
+	return await Body.capture(self, skel, body, idle_ok)
 
 
 ## The global poses of a copy of the humanoid with `rotations` (bone name -> extra local rotation

@@ -35,27 +35,9 @@ func _cone(bone: String, cone_deg: float, twist_deg: float) -> IKChainJoint:
 	return j
 
 
-## The skeleton's global and local bone poses at the next skeleton_updated (skeleton at the
-## origin: skeleton space = world).
+## The poses at the next skeleton_updated (lib/body.gd capture()).
 func _capture(skel: Skeleton3D, body: IKBody) -> Dictionary:
-	var cap := {}
-	var grab := func():
-		if cap.is_empty():
-			var globals := []
-			var locals := []
-			for i in skel.get_bone_count():
-				globals.append(skel.get_bone_global_pose(i))
-				locals.append(skel.get_bone_pose(i))
-			cap["globals"] = globals
-			cap["locals"] = locals
-			cap["result"] = body.get_last_result()
-	skel.skeleton_updated.connect(grab)
-	var waited := 0
-	while cap.is_empty() and waited < 4:
-		await process_frame
-		waited += 1
-	skel.skeleton_updated.disconnect(grab)
-	return cap
+	return await Body.capture(self, skel, body)
 
 
 func _warnings(body: IKBody) -> String:
