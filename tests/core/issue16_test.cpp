@@ -383,7 +383,10 @@ TEST(Issue16, DefaultTimeCapStopsAMisconfiguredSolve) {
   EXPECT_TRUE(r.budget_exhausted);
   EXPECT_EQ(r.reason, TerminationReason::kMaxIterations);
   EXPECT_LT(r.restarts, 1000);
-  EXPECT_LE(cpu, 1.1 * kDefaultTimeCapUsec + 20.0);
+  // Stopped by the cap, not after its seconds: 10x the cap tells the two apart. The tight bound
+  // (1.1 x + 20 us) is a measured number, printed by scripts/bench --budget; asserted here it failed
+  // under wine, whose thread CPU clock ticks in 10-16 ms (60,000 us read for a 50 ms cap).
+  EXPECT_LE(cpu, 10.0 * kDefaultTimeCapUsec);
   EXPECT_LE(r.final_error, r.initial_error);
   // The cap is an option like the budget: 0 turns it off, and it is validated.
   o.time_cap_usec = -1.0;
