@@ -6,8 +6,8 @@
 #include <cmath>
 #include <random>
 
-#include "core/ikchain.hpp"
-#include "core/so3.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain {
 namespace bench {

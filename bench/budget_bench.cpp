@@ -34,10 +34,10 @@
 #include <vector>
 
 #include "bench_common.hpp"
-#include "core/ikchain.hpp"
-#include "core/kinematics.hpp"
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
 
 using namespace ikchain;
 

@@ -7,7 +7,7 @@ import type { IKChainModule, RawWebChain, RawWebTree } from './wasm/ikchain_wasm
 export type Vec3 = readonly [number, number, number];
 export type Quat = readonly [number, number, number, number]; // x, y, z, w
 
-// Codes as in src/core/options.hpp (SolverKind).
+// Codes as in ikchain/options.hpp (SolverKind).
 export enum SolverKind {
   TwoBone = 0,
   CCD = 1,
@@ -27,7 +27,7 @@ export const SOLVERS: readonly { kind: SolverKind; id: string; label: string }[]
 ];
 
 export type TerminationReason = 'converged' | 'max_iterations' | 'stalled' | 'unreachable' | 'invalid_input';
-// Codes as in src/core/result.hpp (TerminationReason).
+// Codes as in ikchain/result.hpp (TerminationReason).
 export const REASONS: readonly TerminationReason[] = [
   'converged', 'max_iterations', 'stalled', 'unreachable', 'invalid_input',
 ];
@@ -262,7 +262,7 @@ export class Chain {
 }
 
 
-// --- Trees (whole bodies): core/tree.hpp, core/tree_solve.hpp through src/wasm/web_tree.hpp.
+// --- Trees (whole bodies): ikchain/tree.hpp, ikchain/tree_solve.hpp through src/wasm/web_tree.hpp.
 
 // A joint of a tree: `parent` is an earlier joint's index (-1: the base); the offset is from the
 // parent's frame, the rest rotation identity. Ball limits: a cone about `twistAxis` (the bone's

@@ -17,8 +17,8 @@
 
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
-#include "core/ikchain.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "ik_modifier.hpp"
 #include "skeleton_tree.hpp"
 

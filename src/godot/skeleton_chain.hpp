@@ -35,12 +35,12 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/chain.hpp"
-#include "core/goal.hpp"
-#include "core/kinematics.hpp"
-#include "core/message.hpp"
-#include "core/span.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/chain.hpp"
+#include "ikchain/goal.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/message.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/workspace.hpp"
 
 namespace ikchain::godot {
 

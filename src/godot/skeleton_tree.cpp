@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/kinematics.hpp"
-#include "core/so3.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain::godot {
 

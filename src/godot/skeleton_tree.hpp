@@ -1,5 +1,5 @@
 // Skeleton <-> tree mapping for IKBody: the bones under a root bone that support some effector ->
-// a core Tree (src/core/tree.hpp), and back (params -> bone pose rotations and, with a floating
+// a core Tree (ikchain/tree.hpp), and back (params -> bone pose rotations and, with a floating
 // root, the root bone's position). Engine-free: it depends only on the core, GLM and the chain
 // mapping's per-joint conversions (skeleton_chain.hpp), so it is unit-tested without Godot
 // (tests/godot_unit/skeleton_tree_test.cpp).
@@ -30,10 +30,10 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/message.hpp"
-#include "core/span.hpp"
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/message.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "skeleton_chain.hpp"
 
 namespace ikchain::godot {

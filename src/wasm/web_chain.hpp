@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
 
 namespace ikchain {
 namespace web {
@@ -15,7 +15,7 @@ constexpr int kMaxGoals = 4;
 
 class WebChain {
  public:
-  // --- describing a chain (joint i's offset is from joint i-1's frame; see core/chain.hpp)
+  // --- describing a chain (joint i's offset is from joint i-1's frame; see ikchain/chain.hpp)
   void clear_joints();
   void add_hinge(double ox, double oy, double oz, double ax, double ay, double az, bool limited,
                  double min_angle, double max_angle);
@@ -59,7 +59,7 @@ class WebChain {
   const SolverOptions& options() const { return options_; }
 
   // --- solving; the result stays readable until the next solve
-  // Returns the termination reason's code (core/result.hpp).
+  // Returns the termination reason's code (ikchain/result.hpp).
   int solve(int solver_kind);
   const SolveResult& last_result() const { return result_; }
   void reset_pose();

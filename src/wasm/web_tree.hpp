@@ -1,4 +1,4 @@
-// The flat API for whole bodies (core/tree.hpp, core/tree_solve.hpp): one object owning a tree, its
+// The flat API for whole bodies (ikchain/tree.hpp, ikchain/tree_solve.hpp): one object owning a tree, its
 // goals at priority levels, a posture, options, workspace and pose, with plain-number arguments as
 // WebChain has (web_chain.hpp). No embind types here. Errors come back as messages naming the
 // field; a failed call leaves the previous state in place. After build(), updating goals, options
@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "core/ikchain.hpp"
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
 
 namespace ikchain {
 namespace web {
@@ -19,7 +19,7 @@ constexpr int kMaxWebTreeGoals = 16;
 class WebTree {
  public:
   // --- describing a tree (joint i's offset is from its parent's frame, rest rotation identity;
-  // parents precede children; see core/tree.hpp). Each returns the new joint's index.
+  // parents precede children; see ikchain/tree.hpp). Each returns the new joint's index.
   void clear();
   // Ball joint; when `limited`, a cone about `twist axis` (the bone's direction in joint space) and
   // a twist range about it (rad).
@@ -70,7 +70,7 @@ class WebTree {
   void set_time_cap_usec(double usec) { options_.time_cap_usec = usec; }  // 0 = none
 
   // --- solving; the result stays readable until the next solve. Returns the termination reason's
-  // code (core/result.hpp).
+  // code (ikchain/result.hpp).
   int solve(int solver_kind);
   const TreeSolveResult& last_result() const { return result_; }
   void reset_pose() { params_.setZero(); }

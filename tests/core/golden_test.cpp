@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "core/solve.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "humanoid.hpp"
 #include "solver_test_util.hpp"
 #include "telescope_arm.hpp"

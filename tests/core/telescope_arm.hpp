@@ -4,7 +4,7 @@
 #pragma once
 #include <gtest/gtest.h>
 
-#include "core/chain.hpp"
+#include "ikchain/chain.hpp"
 
 namespace ikchain {
 namespace test {

@@ -10,8 +10,8 @@
 #include <string>
 
 #include "alloc_counter.hpp"
-#include "core/solve.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "tree_test_util.hpp"
 
 namespace ikchain {

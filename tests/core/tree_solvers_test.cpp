@@ -9,8 +9,8 @@
 #include <random>
 
 #include "alloc_counter.hpp"
-#include "core/solve.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "tree_test_util.hpp"
 
 namespace ikchain {

@@ -16,8 +16,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "../core/alloc_counter.hpp"
-#include "core/so3.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/so3.hpp"
+#include "ikchain/tree_solve.hpp"
 
 namespace ikchain::godot {
 namespace {

@@ -22,9 +22,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/math/linalg.hpp"
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_common.hpp"
 #include "core/solvers/tree_solvers.hpp"
