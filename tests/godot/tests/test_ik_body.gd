@@ -25,6 +25,53 @@ func _target(name: String, t: Transform3D) -> Node3D:
 	return n
 
 
+## Targets for a set-up humanoid's effectors: the feet where they stand, the hips `drop` m lower,
+## and `extra` (bone -> global transform); each a new node named T<bone><tag>. Returns the rest
+## global poses of the hips and feet.
+func _crouch_targets(skel: Skeleton3D, body: IKBody, drop: float, extra := {}, tag := "") -> Dictionary:
+	var rest := {}
+	for bone in ["Hips", "LeftFoot", "RightFoot"]:
+		rest[bone] = skel.get_bone_global_pose(skel.find_bone(bone))
+	var targets := {"Hips": (rest["Hips"] as Transform3D).translated(Vector3(0, -drop, 0)),
+			"LeftFoot": rest["LeftFoot"], "RightFoot": rest["RightFoot"]}
+	targets.merge(extra)
+	for e in body.effectors:
+		var bone := String((e as IKBodyEffector).bone_name)
+		if targets.has(bone):
+			e.target = body.get_path_to(_target("T%s%s" % [bone, tag], targets[bone]))
+	return rest
+
+
+## Every pose finite and the feet within `tolerance` m of their `rest` global poses.
+func _check_feet_stay(skel: Skeleton3D, cap: Dictionary, rest: Dictionary, tolerance: float) -> void:
+	check(_all_finite(cap), "every bone pose finite")
+	for foot in ["LeftFoot", "RightFoot"]:
+		check_le(_origin(skel, cap, foot).distance_to(rest[foot].origin), tolerance, foot + " stays (m)")
+
+
+## The crouch reached (`rest` from _crouch_targets): the feet stayed, the hips went down.
+func _check_crouch(skel: Skeleton3D, cap: Dictionary, rest: Dictionary) -> void:
+	_check_feet_stay(skel, cap, rest, 1e-3)
+	check(_origin(skel, cap, "Hips").y < rest["Hips"].origin.y - 0.05, "the hips went down")
+
+
+## A floating-root IKBody under `skel` (300 iterations) whose feet hold where they stand at level 1
+## (position and rotation), with the `others` effectors after them. Returns the feet's rest poses.
+func _feet_planted_body(skel: Skeleton3D, body: IKBody, others: Array) -> Dictionary:
+	var rest := {}
+	for foot in ["LeftFoot", "RightFoot"]:
+		rest[foot] = skel.get_bone_global_pose(skel.find_bone(foot))
+	body.root_bone = "Hips"
+	body.floating_root = true
+	body.max_iterations = 300
+	body.effectors = [
+		Body.effector("LeftFoot", _target("LF", rest["LeftFoot"]), 1, 1.0, 1.0),
+		Body.effector("RightFoot", _target("RF", rest["RightFoot"]), 1, 1.0, 1.0),
+	] + others
+	skel.add_child(body)
+	return rest
+
+
 ## The poses at the next skeleton_updated (lib/body.gd capture()).
 func _capture(skel: Skeleton3D, body: IKBody, idle_ok := false) -> Dictionary:
 	return await Body.capture(self, skel, body, idle_ok)
@@ -124,25 +171,15 @@ func test_hands_feet_and_head_at_once_by_forward_kinematics() -> void:
 func test_priorities_feet_hold_while_hands_chase_the_unreachable() -> void:
 	var skel := Body.humanoid()
 	case_root.add_child(skel)
-	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
-	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
 	var body := IKBody.new()
-	body.root_bone = "Hips"
-	body.floating_root = true
-	body.max_iterations = 300
-	body.effectors = [
-		Body.effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
-		Body.effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
+	var rest := _feet_planted_body(skel, body, [
 		Body.effector("LeftHand", _target("LH", Transform3D(Basis(), Vector3(3, 2.5, 2))), 2),
 		Body.effector("RightHand", _target("RH", Transform3D(Basis(), Vector3(-3, 2.5, 2))), 2),
-	]
-	skel.add_child(body)
+	])
 	var cap := await _capture(skel, body)
 	if not check(not cap.is_empty(), "skeleton_updated came"):
 		return
-	check(_all_finite(cap), "every bone pose finite")
-	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-4 + FLOAT_SLACK, "left foot planted (m)")
-	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-4 + FLOAT_SLACK, "right foot planted (m)")
+	_check_feet_stay(skel, cap, rest, 1e-4 + FLOAT_SLACK)
 	check(body.is_last_level_met(1), "level 1 (feet) met")
 	check(not body.is_last_level_met(2), "level 2 (hands out of reach) not met")
 	check(body.get_last_effector_position_error(2) > 0.5, "the left hand is still far: its error is reported")
@@ -154,25 +191,13 @@ func test_floating_root_crouches_with_feet_planted() -> void:
 	var skel := Body.humanoid()
 	case_root.add_child(skel)
 	var hips_rest := skel.get_bone_global_pose(skel.find_bone("Hips")).origin
-	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
-	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
-	var body := IKBody.new()
-	body.root_bone = "Hips"
-	body.floating_root = true
-	body.max_iterations = 300
 	var low := Vector3(0.1, hips_rest.y * 0.45, 0.3)
-	body.effectors = [
-		Body.effector("LeftFoot", _target("LF", lfoot), 1, 1.0, 1.0),
-		Body.effector("RightFoot", _target("RF", rfoot), 1, 1.0, 1.0),
-		Body.effector("LeftHand", _target("LH", Transform3D(Basis(), low)), 2),
-	]
-	skel.add_child(body)
+	var body := IKBody.new()
+	var rest := _feet_planted_body(skel, body, [Body.effector("LeftHand", _target("LH", Transform3D(Basis(), low)), 2)])
 	var cap := await _capture(skel, body)
 	if not check(not cap.is_empty(), "skeleton_updated came"):
 		return
-	check(_all_finite(cap), "every bone pose finite")
-	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-4 + FLOAT_SLACK, "left foot planted (m)")
-	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-4 + FLOAT_SLACK, "right foot planted (m)")
+	_check_feet_stay(skel, cap, rest, 1e-4 + FLOAT_SLACK)
 	check_le(_origin(skel, cap, "LeftHand").distance_to(low), 1e-3, "the hand reaches low (m)")
 	check(_origin(skel, cap, "Hips").y < hips_rest.y - 0.02, "the hips dropped: %.4f -> %.4f" % [hips_rest.y,
 			_origin(skel, cap, "Hips").y])
@@ -210,22 +235,13 @@ func test_setup_humanoid_from_profile_names() -> void:
 		check(joints.has(bone) and joints[bone].cone_limit_enabled, bone + " has a cone")
 	# Targets left for the user: assign feet where they stand and lower the hips' target by 10 cm:
 	# the knees must bend forward (the right way), the feet stay.
-	var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
-	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
-	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
 	var knee_rest := skel.get_bone_global_pose(skel.find_bone("LeftLowerLeg")).origin
-	var targets := {"Hips": hips.translated(Vector3(0, -0.1, 0)), "LeftFoot": lfoot, "RightFoot": rfoot}
-	for bone in targets:
-		var t := _target("T" + bone, targets[bone])
-		by_bone[bone].target = body.get_path_to(t)
+	var rest := _crouch_targets(skel, body, 0.1)
 	body.max_iterations = 300
 	var cap := await _capture(skel, body)
 	if not check(not cap.is_empty(), "skeleton_updated came"):
 		return
-	check(_all_finite(cap), "every bone pose finite")
-	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-3, "left foot stays (m)")
-	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-3, "right foot stays (m)")
-	check(_origin(skel, cap, "Hips").y < hips.origin.y - 0.05, "the hips went down")
+	_check_crouch(skel, cap, rest)
 	check(_origin(skel, cap, "LeftLowerLeg").z > knee_rest.z + 0.01, "the left knee bends forward: z %.4f -> %.4f" % [
 			knee_rest.z, _origin(skel, cap, "LeftLowerLeg").z])
 
@@ -299,22 +315,12 @@ func test_setup_humanoid_without_the_optional_spine_bones() -> void:
 		if not String(w).contains("has no target"):
 			other.append(w)
 	check_eq(other.size(), 0, "no configuration warning but the targets to assign: %s" % [other])
-	var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
-	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
-	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
-	var targets := {"Hips": hips.translated(Vector3(0, -0.1, 0)), "LeftFoot": lfoot, "RightFoot": rfoot}
-	for e in body.effectors:
-		var bone := String((e as IKBodyEffector).bone_name)
-		if targets.has(bone):
-			e.target = body.get_path_to(_target("T" + bone, targets[bone]))
+	var rest := _crouch_targets(skel, body, 0.1)
 	body.max_iterations = 300
 	var cap := await _capture(skel, body)
 	if not check(not cap.is_empty(), "skeleton_updated came"):
 		return
-	check(_all_finite(cap), "every bone pose finite")
-	check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-3, "left foot stays (m)")
-	check_le(_origin(skel, cap, "RightFoot").distance_to(rfoot.origin), 1e-3, "right foot stays (m)")
-	check(_origin(skel, cap, "Hips").y < hips.origin.y - 0.05, "the hips went down")
+	_check_crouch(skel, cap, rest)
 
 
 # time_budget_usec (shared with IKChain): a budget far below one iteration stops the solve at its
@@ -326,16 +332,8 @@ func test_time_budget_stops_the_solve_and_says_so() -> void:
 	var body := IKBody.new()
 	skel.add_child(body)
 	check(body.setup_humanoid(), "set up")
-	var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
-	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
-	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
 	var lhand := skel.get_bone_global_pose(skel.find_bone("LeftHand"))
-	var targets := {"Hips": hips.translated(Vector3(0, -0.15, 0)), "LeftFoot": lfoot, "RightFoot": rfoot,
-			"LeftHand": lhand.translated(Vector3(-0.1, -0.3, 0.2))}
-	for e in body.effectors:
-		var bone := String((e as IKBodyEffector).bone_name)
-		if targets.has(bone):
-			e.target = body.get_path_to(_target("T" + bone, targets[bone]))
+	_crouch_targets(skel, body, 0.15, {"LeftHand": lhand.translated(Vector3(-0.1, -0.3, 0.2))})
 	body.max_iterations = 1000
 	body.time_budget_usec = 0.001
 	check_near(body.time_budget_usec, 0.001, 1e-12, "time_budget_usec stored")
@@ -590,13 +588,8 @@ func test_pole_target_turns_the_knee_toward_it() -> void:
 		var body := IKBody.new()
 		skel.add_child(body)
 		body.setup_humanoid()
-		var hips := skel.get_bone_global_pose(skel.find_bone("Hips"))
-		var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
-		var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
-		var targets := {"Hips": hips.translated(Vector3(0, -0.15, 0)), "LeftFoot": lfoot, "RightFoot": rfoot}
+		var lfoot: Transform3D = _crouch_targets(skel, body, 0.15, {}, str(with_pole))["LeftFoot"]
 		for e in body.effectors:
-			if targets.has(e.bone_name):
-				e.target = body.get_path_to(_target("T%s%s" % [e.bone_name, with_pole], targets[e.bone_name]))
 			if with_pole and e.bone_name == "LeftFoot":
 				var knee := skel.get_bone_global_pose(skel.find_bone("LeftLowerLeg")).origin
 				e.pole_target = body.get_path_to(_target("Pole", Transform3D(Basis(), knee + Vector3(1.0, 0, 0.3))))
