@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "bench_common.hpp"
+#include "joint_desc.hpp"
 #include "core/ikchain.hpp"
 #include "core/kinematics.hpp"
 #include "core/tree.hpp"
@@ -128,20 +129,7 @@ Chain random_chain(Rng& r, Shape shape, int n) {
 
 // A leg (hip ball, knee hinge on its limit at 0 with the leg straight), the foot target closer.
 Chain straight_leg() {
-  ChainBuilder b;
-  JointDesc hip;
-  hip.limits.has_cone_limit = true;
-  hip.limits.cone_angle = 1.5;
-  b.add_joint(hip);
-  JointDesc knee;
-  knee.type = JointType::kHinge;
-  knee.hinge_axis = glm::dvec3(1, 0, 0);
-  knee.offset_translation = glm::dvec3(0, -0.42, 0);
-  knee.limits.has_hinge_limit = true;
-  knee.limits.hinge_min = 0.0;
-  knee.limits.hinge_max = 2.6;
-  b.add_joint(knee);
-  b.set_tip_offset(glm::dvec3(0, -0.42, 0));
+  ChainBuilder b = ikchain::bench::straight_leg_builder(0.42, 0.42, /*hip_cone=*/1.5);
   Chain c;
   if (!b.build(c).ok()) std::abort();
   return c;
