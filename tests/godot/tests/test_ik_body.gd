@@ -18,11 +18,7 @@ func _pole(e: IKBodyEffector, pole: Node3D) -> IKBodyEffector:
 
 
 func _target(name: String, t: Transform3D) -> Node3D:
-	var n := Node3D.new()
-	n.name = name
-	n.transform = t
-	case_root.add_child(n)
-	return n
+	return Body.target(case_root, name, t)
 
 
 ## Targets for a set-up humanoid's effectors: the feet where they stand, the hips `drop` m lower,
@@ -102,13 +98,6 @@ func _origin(skel: Skeleton3D, cap: Dictionary, bone: String) -> Vector3:
 	return (cap["globals"][skel.find_bone(bone)] as Transform3D).origin
 
 
-## The angle between two rotations (rad), accurate for small angles (Quaternion.angle_to's acos
-## loses float precision near 0: ~7e-4 rad of noise).
-static func _angle(a: Quaternion, b: Quaternion) -> float:
-	var d := minf((a - b).length(), (a + b).length())
-	return 4.0 * asin(minf(d * 0.5, 1.0))
-
-
 func _random_rotation(rng: RandomNumberGenerator, max_angle: float) -> Quaternion:
 	var axis := Vector3(rng.randf_range(-1, 1), rng.randf_range(-1, 1), rng.randf_range(-1, 1)).normalized()
 	return Quaternion(axis, rng.randf_range(-max_angle, max_angle))
@@ -159,7 +148,7 @@ func test_hands_feet_and_head_at_once_by_forward_kinematics() -> void:
 			if bone.ends_with("Foot"):
 				var q: Quaternion = (cap["globals"][skel.find_bone(bone)] as Transform3D).basis.get_rotation_quaternion()
 				var want: Quaternion = posed[bone].basis.get_rotation_quaternion()
-				check_le(_angle(q, want), body.orientation_tolerance + 1e-5, "%s: %s rotation by FK (rad)" % [label, bone])
+				check_le(Body.angle(q, want), body.orientation_tolerance + 1e-5, "%s: %s rotation by FK (rad)" % [label, bone])
 		# Only the bones that support an effector are solved: 20 of the profile's 56.
 		check_eq(body.get_body_bones().size(), 20, label + ": bones in the tree")
 		check(cap["result"]["levels_met"][0], label + ": level 1 met")
@@ -399,10 +388,6 @@ func test_influence_per_effector_blends_with_the_animated_pose() -> void:
 
 # ------------------------------------------------------------------ hostile inputs
 
-func _warnings(body: IKBody) -> String:
-	return "\n".join(body._get_configuration_warnings())
-
-
 func _body_with(effectors: Array, root := "Hips") -> Dictionary:
 	var skel := Body.humanoid()
 	case_root.add_child(skel)
@@ -469,7 +454,7 @@ func test_hostile_configuration_problems_are_named_with_their_fix() -> void:
 		var body: IKBody = rig["body"]
 		if c.size() > 3:
 			body.solver = c[3]
-		var w := _warnings(body)
+		var w := Body.warnings(body)
 		var regex := RegEx.create_from_string(c[2])
 		check(regex.search(w) != null, "warning matches '%s'; got: %s" % [c[2], w])
 		var cap := await _capture(skel, body, true)
@@ -602,7 +587,7 @@ func test_pole_target_turns_the_knee_toward_it() -> void:
 		check(_all_finite(cap), "every bone pose finite")
 		check_le(_origin(skel, cap, "LeftFoot").distance_to(lfoot.origin), 1e-3, "left foot planted (m), pole %s" % with_pole)
 		knee_x.append(_origin(skel, cap, "LeftLowerLeg").x - _origin(skel, cap, "LeftFoot").x)
-		check(_warnings(body).find("pole_target") < 0, "no pole warning: " + _warnings(body))
+		check(Body.warnings(body).find("pole_target") < 0, "no pole warning: " + Body.warnings(body))
 		skel.free()
 	check(knee_x[1] > knee_x[0] + 0.01, "the pole turned the knee out: %.4f -> %.4f m" % knee_x)
 
@@ -646,7 +631,7 @@ func test_animation_player_pose_is_corrected_not_replaced() -> void:
 		return
 	check_le(_origin(skel, cap, "LeftHand").distance_to(goal), body.tolerance + FLOAT_SLACK, "the hand is corrected onto its target (m)")
 	var right: Quaternion = (cap["locals"][elbow_r] as Transform3D).basis.get_rotation_quaternion()
-	check_le(_angle(right, bent_r), 1e-5, "the right elbow keeps the animation's rotation (rad)")
+	check_le(Body.angle(right, bent_r), 1e-5, "the right elbow keeps the animation's rotation (rad)")
 	check_eq(body.get_last_reason(), "converged", "reason")
 
 
@@ -852,7 +837,7 @@ func test_reach_with_a_moved_turned_scaled_skeleton() -> void:
 		var want := place.transform * (posed[bone] as Transform3D)
 		# tolerance is in skeleton units (the solve's space): 1.5x in the world.
 		check_le(world.origin.distance_to(want.origin), 1.5 * body.tolerance + FLOAT_SLACK, bone + " reached in the world (m)")
-		check_le(_angle(world.basis.get_rotation_quaternion(), want.basis.get_rotation_quaternion()),
+		check_le(Body.angle(world.basis.get_rotation_quaternion(), want.basis.get_rotation_quaternion()),
 				body.orientation_tolerance + 1e-5, bone + " rotation in the world (rad)")
 
 
@@ -878,7 +863,7 @@ func test_motion_cost_makes_the_spine_reluctant() -> void:
 		check_le(_origin(skel, cap, "LeftHand").distance_to(hand + Vector3(-0.15, -0.2, 0.2)), body.tolerance + FLOAT_SLACK,
 				"cost %.0f: the hand reaches (m)" % cost)
 		var i := skel.find_bone("Spine")
-		bend.append(_angle((cap["locals"][i] as Transform3D).basis.get_rotation_quaternion(),
+		bend.append(Body.angle((cap["locals"][i] as Transform3D).basis.get_rotation_quaternion(),
 				skel.get_bone_rest(i).basis.get_rotation_quaternion()))
 		skel.free()
 	check(bend[1] < 0.5 * bend[0], "the costly spine bends less: %.4f -> %.4f rad" % bend)
@@ -904,12 +889,12 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 	var before := await _capture(skel, body)
 	if not check(not before.is_empty(), "skeleton_updated came"):
 		return
-	var bend_before := _angle((before["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
+	var bend_before := Body.angle((before["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
 	target.position = hand + Vector3(-0.6, -0.9, 0.6)  # beyond the arm: the spine bends
 	for i in 5:
 		await process_frame
 	var far := await _capture(skel, body)
-	var bend_far := _angle((far["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
+	var bend_far := Body.angle((far["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
 	check(bend_far > bend_before + 0.2, "the far reach bends the spine: %.4f -> %.4f rad" % [bend_before, bend_far])
 	target.position = near
 	# A frame takes IKBody.kPostureIterations posture steps once its goals are met
@@ -918,7 +903,7 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 		await process_frame
 	var after := await _capture(skel, body)
 	check_le(_origin(skel, after, "LeftHand").distance_to(near), body.tolerance + FLOAT_SLACK, "the hand is back (m)")
-	var bend_after := _angle((after["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
+	var bend_after := Body.angle((after["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
 	# Measured: 0.469 rad after (all of the far bend) when the posture was the last solution; 0.116
 	# with the posture on the incoming pose but posture steps refused once they pushed the hand out
 	# of tolerance; now the solve's second-order correction (or a shorter posture step) keeps the
