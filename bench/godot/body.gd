@@ -1,4 +1,4 @@
-extends SceneTree
+extends "res://bench/common.gd"
 ## The full body in Godot: IKBody (setup_humanoid()) on a humanoid built from
 ## SkeletonProfileHumanoid's reference pose, targets on hips, hands, feet and head moving smoothly,
 ## next to a stack of IKChain nodes and Godot's FABRIK3D on the same skeleton and targets. Run by
@@ -33,38 +33,20 @@ const POP_M := 0.05
 ## 1). Such frame pairs are not scored for pops; the replay reports how many there were.
 const CUT_M := 0.25
 
-var _args := {}
 var _rigs: Array = []
 
 
-func _initialize() -> void:
-	for a in OS.get_cmdline_user_args():
-		var kv: PackedStringArray = a.trim_prefix("--").split("=", true, 1)
-		_args[kv[0]] = kv[1] if kv.size() > 1 else "1"
-	_main()
-
-
-func _main() -> void:
-	await process_frame
-	var out: Dictionary
-	match _args.get("mode", ""):
+func _run(mode: String) -> Variant:
+	match mode:
 		"cost":
-			out = await _cost()
+			return await _cost()
 		"walltime":
-			out = await _walltime()
+			return await _walltime()
 		"stability":
-			out = await _stability()
+			return await _stability()
 		"replay":
-			out = await _replay()
-		_:
-			push_error("body.gd: --mode must be cost, walltime or stability")
-			quit(2)
-			return
-	var f := FileAccess.open(_args["out"], FileAccess.WRITE)
-	f.store_string(JSON.stringify(out, " "))
-	f.close()
-	print("[GBENCH] DONE")
-	quit()
+			return await _replay()
+	return null
 
 
 # ------------------------------------------------------------------ the character
@@ -193,24 +175,11 @@ static func systems_list(arg: String) -> PackedStringArray:
 
 # ------------------------------------------------------------------ cost (callgrind)
 
-var _markers: Array = []
-var _dir: DirAccess
-
-
-func marker(label: String) -> void:
-	_markers.append(label)
-	_dir.create_link("/nonexistent-gbench-marker", _args["marker_dir"].path_join("m%d" % _markers.size()))
-
-
 func _cost() -> Dictionary:
 	var characters := int(_args.get("characters", "10"))
 	var frames := int(_args.get("frames", "10"))
 	var systems := systems_list(_args.get("systems", "IKBody,IKChain_stack,FABRIK3D_default,FABRIK3D_converge"))
-	_dir = DirAccess.open(_args["marker_dir"])
-	print("[GBENCH] READY")
-	while not FileAccess.file_exists(_args["ack"]):
-		OS.delay_msec(20)
-	marker("setup")
+	wait_for_instrumentation()
 	var phases := []
 	for system in systems:
 		var scene := build(system, characters)
@@ -244,13 +213,6 @@ func _cost() -> Dictionary:
 
 
 # ------------------------------------------------------------------ wall time
-
-static func _cpu_usec() -> float:
-	var f := FileAccess.open("/proc/thread-self/schedstat", FileAccess.READ)
-	if f == null:
-		return NAN
-	return float(f.get_line().get_slice(" ", 0)) / 1000.0
-
 
 static func _median(values: Array) -> float:
 	var v := values.duplicate()
