@@ -479,7 +479,7 @@ func _replay() -> Dictionary:
 		eff_bones.append(skel.find_bone(e))
 	var state := {"pts": null, "seen": 0}
 	var results := {"success": 0, "scored": 0, "missing": 0, "flips": 0, "bent": 0, "pops": 0, "pairs": 0, "cuts": 0,
-			"worst": 0.0, "worst_frame": -1, "pos_err": [], "rot_err": [], "iterations": []}
+			"worst": 0.0, "worst_frame": -1, "pop_list": [], "pos_err": [], "rot_err": [], "iterations": []}
 	var prev_normal := [Vector3.ZERO, Vector3.ZERO, Vector3.ZERO, Vector3.ZERO]
 	var prev_pts = null
 	var hash := HashingContext.new()
@@ -566,16 +566,23 @@ func _replay() -> Dictionary:
 			var r0: Array = recorded[f - 1]
 			var r1: Array = recorded[f]
 			var excess := 0.0
+			var excess_bone := -1
 			for b in _solved:
 				var rec_move := Vector3(r1[3 * b], r1[3 * b + 1], r1[3 * b + 2]).distance_to(
 						Vector3(r0[3 * b], r0[3 * b + 1], r0[3 * b + 2]))
-				excess = maxf(excess, pts[b].distance_to(prev_pts[b]) - rec_move)
+				var bone_excess := pts[b].distance_to(prev_pts[b]) - rec_move
+				if bone_excess > excess:
+					excess = bone_excess
+					excess_bone = b
 			results["pairs"] += 1
 			if excess > results["worst"]:
 				results["worst"] = excess
 				results["worst_frame"] = f
 			if excess >= POP_M:
 				results["pops"] += 1
+				# Which bone popped on which frame, to find the cause (the first 50).
+				if results["pop_list"].size() < 50:
+					results["pop_list"].append({"frame": f, "bone": skel.get_bone_name(excess_bone), "excess_m": excess})
 		prev_pts = pts
 	var digest := hash.finish().hex_encode()
 	rig.queue_free()
@@ -597,7 +604,7 @@ func _replay() -> Dictionary:
 			"pop_frames": results["pops"], "frame_pairs": results["pairs"], "recording_cuts": results["cuts"],
 			"pop_share": float(results["pops"]) / maxi(1, results["pairs"]),
 			"worst_excess_move_m": results["worst"], "worst_excess_frame": results["worst_frame"],
-			"sha256_solved_poses": digest}
+			"pops": results["pop_list"], "sha256_solved_poses": digest}
 	print("[GBENCH] replay %s %s: success %.2f%%, flips %d, pops %d / %d (%d cuts in the recording skipped; worst %.4f m at frame %d), median it %d, sha %s" % [
 			rec["clip"], rec["system"], 100.0 * rec["success_rate_1mm_1deg"], rec["knee_elbow_flips"], rec["pop_frames"],
 			rec["frame_pairs"], rec["recording_cuts"], rec["worst_excess_move_m"], rec["worst_excess_frame"], rec["median_iterations"], digest.substr(0, 16)])

@@ -111,6 +111,11 @@ class SkeletonTree {
   // `ws` is scratch for the forward kinematics (sized for the tree). Allocates nothing.
   bool swivel_toward_pole(int end, const glm::dvec3& pole_in_tree, double* params, TreeWorkspace& ws) const;
 
+  // Per DOF (tree().dof_count() entries): its bone's JointSettings::posture_stiffness, the
+  // TreeProblem::posture_stiffness of a body whose joints carry their own (a floating root's
+  // translation takes the root bone's). Allocates nothing.
+  void posture_stiffness(double* per_dof) const;
+
   // ---- look-at spread ----
 
   // Turns `bones` (mapping indices, root-most first, each an ancestor of the next; the last is the
