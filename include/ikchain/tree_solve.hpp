@@ -41,11 +41,14 @@ struct TreeProblem {
   // preference). It only uses the freedom the goals leave, so it never costs a goal accuracy.
   Span<const double> posture;
   Span<const double> posture_stiffness;
-  // Once every goal is met, the posture converges linearly (a share of the remaining distance an
-  // iteration): a solve that waits for it to settle (its gain below 1e-3) spends most of its
-  // iterations on it. A tracking caller, whose next frame starts from this one's pose and goes on
-  // toward the posture, can stop after this many more iterations (0 = until it settles). Ignored
-  // without a posture; every goal stays met either way.
+  // The posture converges linearly (a share of the remaining distance a step): a solve that waits
+  // for it to settle (its gain below 1e-3; posture_iterations 0) spends most of its iterations on
+  // it. A tracking caller, whose next frame starts from this one's pose and goes on toward the
+  // posture, can give it this many steps instead: the posture rides on the solve's steps, and
+  // once this many of them have carried it from a pose near the goals (every level within 100
+  // tolerances) the steps serve the goals alone, and the solve stops when they are met. With 1, a
+  // tracking frame's first step both follows the targets and pulls toward the posture: often the
+  // whole frame. Ignored without a posture; the goals are met either way.
   int posture_iterations = 0;
 };
 

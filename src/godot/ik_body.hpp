@@ -31,8 +31,10 @@ class IKBody : public IKModifier {
   // The Solver values are IKChain.Solver's (solver_choice.hpp): saved in scenes, never renumbered.
   // Only the solvers whose core solver-table row says `trees` are offered.
   static constexpr int64_t kDefaultMaxIterations = 100;
-  // Posture-only iterations a frame takes once its goals are met (TreeProblem::posture_iterations).
-  static constexpr int kPostureIterations = 4;
+  // The steps of a frame that carry the posture (TreeProblem::posture_iterations): one, riding on
+  // the frame's first step near the goals, so a tracking frame often needs one linearisation; the
+  // joints' posture_stiffness is then the share of the way back to the incoming pose a frame takes.
+  static constexpr int kPostureIterations = 1;
 
   static void register_class(gdx::ClassRecord& record);
   static void unregister_class();

@@ -79,11 +79,12 @@ struct JointSettings {
   // How reluctantly a tree solve moves this joint relative to others (TreeJointDesc::motion_cost;
   // > 0, 1 = as any joint). Chains ignore it.
   double motion_cost = 1.0;
-  // IKBody: the share ([0, 1]) of the way back to the incoming pose that one posture step takes for
-  // this joint, in the freedom the effectors leave (TreeProblem::posture_stiffness). 1 holds the
-  // joint's pose firmly (a torso that should not drift and swing back), 0 lets it rest wherever the
-  // effectors left it. Chains ignore it.
-  double posture_stiffness = 0.1;
+  // IKBody: the share ([0, 1]) of the way back to the incoming pose that one posture step (one a
+  // frame: IKBody::kPostureIterations) takes for this joint, in the freedom the effectors leave
+  // (TreeProblem::posture_stiffness). 1 holds the joint's pose firmly (a torso that should not
+  // drift and swing back), 0 lets it rest wherever the effectors left it. 0.35 a frame is what four
+  // steps of 0.1 took before a frame's posture rode on its first step. Chains ignore it.
+  double posture_stiffness = 0.35;
 };
 
 struct ChainBoneDesc {

@@ -318,7 +318,7 @@ TEST(SkeletonTree, JointSettingsBecomeHingesAndConesAndTheWarmStartRespectsThem)
 }
 
 // IKBody's posture task reads each joint's posture_stiffness per DOF: a floating root's 6 params
-// take the root bone's, a bone without settings the default 0.1; out of [0, 1] is refused by name.
+// take the root bone's, a bone without settings the default (JointSettings); out of [0, 1] is refused by name.
 TEST(SkeletonTree, PostureStiffnessPerDofFromEachBonesJoint) {
   Skel s = body();
   SkeletonTreeDesc d = describe(s, "Hips", {"LeftFoot", "Head"}, true, nullptr, &knee_hinge);
@@ -333,7 +333,7 @@ TEST(SkeletonTree, PostureStiffnessPerDofFromEachBonesJoint) {
   const int spine = map.bone_of(find(s, "Spine")), knee = map.bone_of(find(s, "LeftLowerLeg"));
   for (int p = 0; p < 6; ++p) EXPECT_EQ(stiffness[size_t(p)], 0.0) << "root param " << p;
   for (int p = 0; p < 3; ++p) EXPECT_EQ(stiffness[size_t(map.tree().dof_offset(spine) + p)], 1.0);
-  EXPECT_EQ(stiffness[size_t(map.tree().dof_offset(knee))], 0.1);
+  EXPECT_EQ(stiffness[size_t(map.tree().dof_offset(knee))], JointSettings().posture_stiffness);
   for (double v : stiffness) EXPECT_GE(v, 0.0);  // every DOF written
   for (TreeBoneDesc& b : d.bones)
     if (b.name == "Spine") b.joint.posture_stiffness = 1.5;

@@ -752,7 +752,7 @@ func test_posture_stiffness_holds_the_torso_of_a_punching_body() -> void:
 	var torso := {}
 	for j in body.joints:
 		if j.bone_name in ["Spine", "Chest", "UpperChest", "Neck"]:
-			check_eq(j.posture_stiffness, 0.1, j.bone_name + ": the default posture_stiffness")
+			check_eq(j.posture_stiffness, 0.35, j.bone_name + ": the default posture_stiffness")
 			j.posture_stiffness = 1.0
 			torso[j.bone_name] = j
 	var head_joint := IKChainJoint.new()
@@ -958,8 +958,8 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 	var bend_far := Body.angle((far["locals"][spine] as Transform3D).basis.get_rotation_quaternion(), rest)
 	check(bend_far > bend_before + 0.2, "the far reach bends the spine: %.4f -> %.4f rad" % [bend_before, bend_far])
 	target.position = near
-	# A frame takes IKBody.kPostureIterations posture steps once its goals are met
-	# (a share of the way back each), so the spine gets back over a few frames, not in one.
+	# A frame's first step near the goals carries the posture (IKBody.kPostureIterations = 1), a
+	# share (posture_stiffness) of the way back, so the spine gets back over a few frames, not in one.
 	for i in 12:
 		await process_frame
 	var after := await _capture(skel, body)
