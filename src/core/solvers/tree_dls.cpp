@@ -679,6 +679,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (!chorded) {
         tree_dof_axes(tree, params, ws);  // ws holds the FK of params (the accepted trial's)
         model.linearize();
+        if (ws.deadline.spent()) break;  // between the linearisation and the step's factorisation
       }
     }
     bool trial_ok = chorded || model.compute(params, mu, step_posture_gain, served);
@@ -691,7 +692,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
       if (!trial_ok && !chorded && (model.level_count() > 1 || !problem.posture.empty()) &&
-          model.correct(ws.params_trial.data(), ws.residual_trial)) {
+          !ws.deadline.spent() && model.correct(ws.params_trial.data(), ws.residual_trial)) {
         // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
         ws.dof_vec_b = ws.params_trial;
         make_trial(tree, o, ws.dof_vec_b.data(), ws.step.data(), ws.params_trial.data());
@@ -704,6 +705,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     if (!trial_ok && chorded) {
       // The chord step fell short: a full step from a fresh J (the damping stays).
       tree_forward_kinematics(tree, params, ws);
+      if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
       tree_dof_axes(tree, params, ws);
       model.linearize();
       continue;
@@ -746,6 +748,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (goals_left && creep_steps >= kStallIterations &&
           (tighten() || (any_pinned(tree, ws, model.columns(), params) && escape_stuck())))
         continue;
+      if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
       if (gain >= kChordGain && !model.cut()) {
         chord = true;  // the next iteration reuses J
       } else {
