@@ -7,7 +7,8 @@
 // hinges, balls, limited and not, 7 hinges with 6 position goals that no pose meets - a
 // rank-deficient Gram matrix every iteration -, straight legs with the knee on its limit, targets
 // out of reach, tolerances no solve meets so that the budget is what stops it, restarts, warm and
-// cold starts; trees: random branched skeletons with goals at several priority levels), budgets
+// cold starts; trees: random branched skeletons with goals at several priority levels, and the tests'
+// humanoid (17 joints, 43 DOF, 46 with its floating root) with pose goals on its six effectors), budgets
 // log-uniform in 20 us .. 2 ms. Each solve's thread CPU time (clock_gettime
 // CLOCK_THREAD_CPUTIME_ID: what the solve itself used, whatever else the machine runs) is compared
 // with 1.1 x budget + 20 us. The deadline itself runs on the steady clock, as in a game (the budget is
@@ -21,7 +22,8 @@
 // (a shared machine charges a run interrupts and cache flushes that are not the solve's); the
 // count on first runs is printed too. Every solve follows an untimed warm-up solve of the same
 // problem on its workspace (a game reuses its workspace; first-touch page faults are not the
-// solver's). --case I re-runs case I alone and prints what it was.
+// solver's). --case I re-runs case I alone and prints what it was and where its time went (the
+// longest CPU time between two clock readings, the time after the last, the longest charged stretch).
 #include <time.h>
 
 #include <algorithm>
@@ -33,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "../tests/core/tree_test_util.hpp"  // the humanoid the tree tests solve (make_humanoid)
 #include "bench_common.hpp"
 #include "joint_desc.hpp"  // ikchain::bench; the JSON helpers are ::bench (bench_common.hpp)
 #include "ikchain/ikchain.hpp"
@@ -228,6 +231,7 @@ ChainCase make_chain_case(Rng& r) {
 
 // ------------------------------------------------------------------------------------ trees
 struct TreeCase {
+  bool humanoid = false;
   Tree tree;
   std::vector<TreeGoal> goals;
   std::vector<double> posture;
@@ -237,10 +241,56 @@ struct TreeCase {
   int joints = 0;
 };
 
+// The options every tree case draws.
+void draw_tree_options(Rng& r, TreeCase& k) {
+  static const SolverKind kinds[] = {SolverKind::kDLS, SolverKind::kBFGS, SolverKind::kCCD, SolverKind::kFABRIK};
+  k.kind = kinds[uniform_int(r, 0, 3)];
+  if (k.kind == SolverKind::kDLS && coin(r)) k.posture.assign(k.tree.dof_count(), 0.0);
+  SolverOptions& o = k.options;
+  o.max_iterations = coin(r, 0.7) ? 100000 : uniform_int(r, 10, 1000);
+  o.position_tolerance = coin(r, 0.7) ? 1e-300 : 1e-6;
+  o.orientation_tolerance = coin(r, 0.7) ? 1e-300 : 1e-6;
+  o.stall_tolerance = coin(r, 0.5) ? 0.0 : 1e-10;
+  o.max_restarts = coin(r, 0.3) ? uniform_int(r, 1, 100) : 0;
+  o.warm_start = coin(r);
+}
+
+// The tree tests' humanoid (tests/core/tree_test_util.hpp: hips, spine, chest, neck, head, arms
+// with hinge elbows, legs with hinge knees; limits on or off, the root floating or not): pose
+// goals (position and orientation) on 1..6 of its effectors at levels 1..3, from a random pose
+// (reachable together) or each from its own (not).
+TreeCase make_humanoid_case(Rng& r) {
+  TreeCase k;
+  k.humanoid = true;
+  k.tree = test::make_humanoid(coin(r, 0.7), coin(r, 0.8));
+  k.joints = k.tree.joint_count();
+  TreeWorkspace ws(k.tree, 1);
+  const int effectors = uniform_int(r, 1, k.tree.effector_count());
+  const bool together = coin(r);
+  Eigen::VectorXd q(k.tree.dof_count());
+  for (int e = 0; e < effectors; ++e) {
+    if (e == 0 || !together) {
+      for (int i = 0; i < q.size(); ++i) q[i] = uniform(r, -1.0, 1.0);
+      if (k.tree.floating_root())
+        for (int i = 0; i < 3; ++i) q[i] = uniform(r, -0.3, 0.3);
+      project_tree_to_limits(k.tree, q.data());
+      tree_forward_kinematics(k.tree, q.data(), ws);
+    }
+    const int level = uniform_int(r, 1, 3);
+    k.goals.push_back({Goal::position(tree_effector_position(k.tree, ws, e), e), level});
+    if (coin(r, 0.6)) k.goals.push_back({Goal::orientation(tree_effector_orientation(k.tree, ws, e), e), level});
+  }
+  draw_tree_options(r, k);
+  k.start = Eigen::VectorXd::Zero(k.tree.dof_count());
+  for (int i = 0; i < k.start.size(); ++i) k.start[i] = uniform(r, -0.3, 0.3);
+  return k;
+}
+
 // A random branched skeleton of 5..120 joints (each joint's parent one of the last few, so it has
 // limbs), balls and hinges with limits on some, a floating root sometimes; 1..12 goals on random
 // effectors at levels 1..3.
 TreeCase make_tree_case(Rng& r) {
+  if (coin(r, 0.25)) return make_humanoid_case(r);
   TreeCase k;
   TreeBuilder b;
   const int n = static_cast<int>(std::lround(std::exp(uniform(r, std::log(5.0), std::log(120.0)))));
@@ -280,16 +330,7 @@ TreeCase make_tree_case(Rng& r) {
     g.level = uniform_int(r, 1, 3);
     k.goals.push_back(g);
   }
-  static const SolverKind kinds[] = {SolverKind::kDLS, SolverKind::kBFGS, SolverKind::kCCD, SolverKind::kFABRIK};
-  k.kind = kinds[uniform_int(r, 0, 3)];
-  if (k.kind == SolverKind::kDLS && coin(r)) k.posture.assign(k.tree.dof_count(), 0.0);
-  SolverOptions& o = k.options;
-  o.max_iterations = coin(r, 0.7) ? 100000 : uniform_int(r, 10, 1000);
-  o.position_tolerance = coin(r, 0.7) ? 1e-300 : 1e-6;
-  o.orientation_tolerance = coin(r, 0.7) ? 1e-300 : 1e-6;
-  o.stall_tolerance = coin(r, 0.5) ? 0.0 : 1e-10;
-  o.max_restarts = coin(r, 0.3) ? uniform_int(r, 1, 100) : 0;
-  o.warm_start = coin(r);
+  draw_tree_options(r, k);
   k.start = Eigen::VectorXd::Zero(k.tree.dof_count());
   for (int i = 0; i < k.start.size(); ++i) k.start[i] = uniform(r, -0.3, 0.3);
   return k;
@@ -314,15 +355,25 @@ SolverOptions warm_up_options(SolverOptions o) {
 }
 
 bool g_cpu_clock = false;
-double cpu_clock_us() { return thread_cpu_us(); }
+// On the CPU clock, the longest CPU time between two of the solve's clock readings (or from its
+// start to the first): where an overrun comes from, printed by --case.
+double g_last_reading = 0.0, g_longest_gap = 0.0;
+double cpu_clock_us() {
+  const double now = thread_cpu_us();
+  g_longest_gap = std::max(g_longest_gap, now - g_last_reading);
+  return g_last_reading = now;
+}
 
 struct Outcome {
   std::string solver, what;
-  bool tree = false, exhausted = false;
+  bool tree = false, humanoid = false, exhausted = false;
   int dofs = 0;
   double budget = 0.0, cpu = 0.0, wall = 0.0;
   int iterations = 0, restarts = 0;
   const char* reason = "";
+  // Between clock readings: the longest CPU time and the time after the last (--cpu-clock), and
+  // the longest charged stretch against its bound (Deadline::stretch_bound).
+  double longest_gap_us = 0.0, tail_us = 0.0, longest_flops = 0.0, flops_bound = 0.0;
 };
 
 // Case `index` of `seed`: draws the problem, solves it once on a budget, measures it.
@@ -345,8 +396,15 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     solve(k.kind, k.chain, Span<const Goal>(k.goals), warm_up_options(k.options), ws, p);
     p = k.start;
     const double w0 = wall_us(), c0 = thread_cpu_us();
+    g_last_reading = c0;
+    g_longest_gap = 0.0;
     const SolveResult res = solve(k.kind, k.chain, Span<const Goal>(k.goals), k.options, ws, p);
     out.cpu = thread_cpu_us() - c0;
+    out.tail_us = c0 + out.cpu - g_last_reading;
+    out.longest_gap_us = g_longest_gap;
+    out.longest_flops = ws.deadline.longest_stretch;
+    out.flops_bound =
+        Deadline::stretch_bound(k.chain.joint_count(), k.chain.dof_count(), 3 * static_cast<int>(k.goals.size()));
     out.wall = wall_us() - w0;
     out.solver = to_string(k.kind);
     out.dofs = k.chain.dof_count();
@@ -369,8 +427,12 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     solve_tree(k.kind, k.tree, problem, warm_up_options(k.options), ws, p);  // the warm-up, as for chains
     p = k.start;
     const double w0 = wall_us(), c0 = thread_cpu_us();
+    g_last_reading = c0;
+    g_longest_gap = 0.0;
     const TreeSolveResult res = solve_tree(k.kind, k.tree, problem, k.options, ws, p);
     out.cpu = thread_cpu_us() - c0;
+    out.tail_us = c0 + out.cpu - g_last_reading;
+    out.longest_gap_us = g_longest_gap;
     out.wall = wall_us() - w0;
     if (res.summary.reason == TerminationReason::kInvalidInput) return false;
     out.tree = true;
@@ -380,7 +442,9 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     out.iterations = res.summary.iterations;
     out.restarts = res.summary.restarts;
     out.reason = to_string(res.summary.reason);
-    std::snprintf(what, sizeof what, "tree %d joints %d dof %zu goals%s, restarts<=%d, warm %d, tol %g", k.joints,
+    out.humanoid = k.humanoid;
+    std::snprintf(what, sizeof what, "%s %d joints %d dof %zu goals%s, restarts<=%d, warm %d, tol %g",
+                  k.humanoid ? "humanoid tree" : "tree", k.joints,
                   k.tree.dof_count(), k.goals.size(), k.posture.empty() ? "" : " +posture", k.options.max_restarts,
                   k.options.warm_start ? 1 : 0, k.options.position_tolerance);
   }
@@ -417,6 +481,12 @@ int main(int argc, char** argv) {
     std::printf("case %ld: %s, %s; budget %.1f us: cpu %.1f us (%.3fx), wall %.1f us, %s, %d iterations, %d restarts, "
                 "budget_exhausted %d\n", only_case, o.solver.c_str(), o.what.c_str(), o.budget, o.cpu, o.cpu / o.budget,
                 o.wall, o.reason, o.iterations, o.restarts, o.exhausted ? 1 : 0);
+    if (g_cpu_clock)
+      std::printf("  longest CPU time between clock readings %.1f us, after the last %.1f us\n", o.longest_gap_us,
+                  o.tail_us);
+    if (o.flops_bound > 0.0)
+      std::printf("  longest charged stretch %.0f flops (Deadline::stretch_bound %.0f)\n", o.longest_flops,
+                  o.flops_bound);
     return 0;
   }
   std::vector<Stats> stats;
@@ -436,6 +506,7 @@ int main(int argc, char** argv) {
   long bucket_solves[kBuckets] = {0}, bucket_over[kBuckets] = {0};
   const double t_end = wall_us() + seconds * 1e6;
   long index = 0, skipped = 0, raw_over = 0;
+  long humanoid_solves = 0, humanoid_over = 0;
   const int kRetries = 2;
   for (; wall_us() < t_end; ++index) {
     Outcome o;
@@ -454,6 +525,8 @@ int main(int argc, char** argv) {
       if (again.cpu < o.cpu) o = again;
     }
     const double excess = o.cpu - (kRatio * o.budget + kSlackUs);
+    humanoid_solves += o.humanoid;
+    humanoid_over += o.humanoid && excess > 0.0;
     for (int b = 0; b < kBuckets; ++b)
       if (o.dofs <= bucket_top[b]) {
         ++bucket_solves[b];
@@ -512,8 +585,9 @@ int main(int argc, char** argv) {
     json += std::string(b ? ", " : "") + "{\"dofs\": " + ::bench::json_string(label) +
             ", \"solves\": " + std::to_string(bucket_solves[b]) + ", \"over_bound\": " + std::to_string(bucket_over[b]) + "}";
   }
-  json += "]}\n";
-  std::printf("\n");
+  json += "], \"humanoid_trees\": {\"solves\": " + std::to_string(humanoid_solves) +
+          ", \"over_bound\": " + std::to_string(humanoid_over) + "}}\n";
+  std::printf("; humanoid trees: %ld of %ld\n", humanoid_over, humanoid_solves);
   const std::string path = out_dir + "/budget.json";
   if (::bench::write_file(path, json)) std::printf("JSON: %s\n", path.c_str());
   std::printf("budget: %ld of %ld solves over %.2f x budget + %.0f us CPU (least of 3 runs; %ld on their first run)\n",

@@ -40,6 +40,7 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
     ws.joint_orientations[i] = to_glm(orientation);
   }
   ws.tip = origin + rotate_coded(orientation, chain.tip_offset(), Direction(chain.tip_direction()));
+  ws.deadline.charge(Deadline::kFlopsPerJoint * n);
 }
 
 int resolve_effector(const Chain& chain, int effector) {
@@ -82,6 +83,7 @@ void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws) {
       for (int k = 0; k < 3; ++k) ws.dof_axes[o + k] = pre * jl[k];
     }
   }
+  ws.deadline.charge(Deadline::kFlopsPerJoint * n);
 }
 
 namespace {
@@ -162,9 +164,10 @@ GoalErrors measure_goals(const Chain& chain, Span<const Goal> goals, const Works
   return evaluate(chain, goals, ws, [](int, const glm::dvec3&) {});
 }
 
-void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
+void compute_jacobian(const Chain& chain, Span<const Goal> goals, Workspace& ws,
                       Eigen::Ref<Eigen::MatrixXd> jacobian) {
   const int n = chain.joint_count();
+  ws.deadline.charge(Deadline::kFlopsPerJacobianEntry * 3.0 * goals.size * chain.dof_count());
   for (int gi = 0; gi < goals.size; ++gi) {
     const Goal& g = goals[gi];
     const int k = resolve_effector(chain, g.effector);

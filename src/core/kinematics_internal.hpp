@@ -33,7 +33,7 @@ GoalErrors evaluate_goals(const Chain& chain, Span<const Goal> goals, const Work
 // Jacobian of the weighted residual rows w.r.t. params (d current / d params, i.e. the sign that
 // makes J * dparams ~= the achieved change of the effectors), 3 rows per goal.
 // Needs forward_kinematics() and compute_dof_axes().
-void compute_jacobian(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
+void compute_jacobian(const Chain& chain, Span<const Goal> goals, Workspace& ws,
                       Eigen::Ref<Eigen::MatrixXd> jacobian);
 
 // What a goal's Jacobian columns depend on besides the DOF (compute_jacobian, the tree's Jacobian).

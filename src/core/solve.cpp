@@ -527,6 +527,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   result.budget_exhausted = ws.deadline.hit && (result.reason == TerminationReason::kMaxIterations ||
                                                 result.reason == TerminationReason::kUnreachable);
   if (result.reason != TerminationReason::kInvalidInput) result.joints_at_limit = joints_at_limit(chain, p);
+  ws.deadline.finish();  // the exit work's stretch
   return finish();
 }
 

@@ -77,6 +77,7 @@ void tree_forward_kinematics(const Tree& tree, const double* params, TreeWorkspa
     ws.joint_pre_rotations[i] = pre;
     ws.joint_orientations[i] = orientation;
   }
+  ws.deadline.charge(Deadline::kFlopsPerJoint * n);
 }
 
 glm::dvec3 tree_effector_position(const Tree& tree, const TreeWorkspace& ws, int effector) {
@@ -335,6 +336,7 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   }
   if (summary.budget_exhausted && summary.reason == TerminationReason::kStalled)
     summary.reason = TerminationReason::kMaxIterations;
+  ws.deadline.finish();  // the exit work's stretch
   return finish();
 }
 

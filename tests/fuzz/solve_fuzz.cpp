@@ -19,7 +19,10 @@
 //    reproducible): the solve reads the clock no more after the reading that found the budget spent
 //    (it is checked before every iteration and in the long inner loops, and nothing after it reads
 //    the clock), budget_exhausted says exactly whether that reading came, and it comes only with
-//    max_iterations or unreachable (result.hpp).
+//    max_iterations or unreachable (result.hpp);
+//  - work per clock reading (issue 16, item 6): with a budget, no stretch of work between two clock
+//    readings, nor the exit work after the last, is longer than Deadline::stretch_bound of the
+//    problem's size (the kernels' charged flops: deterministic, so a finding replays exactly).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -460,6 +463,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
               r.reason == TerminationReason::kUnreachable,
           "budget_exhausted with a reason other than max_iterations/unreachable", static_cast<double>(r.reason));
   REQUIRE(!r.budget_exhausted || ws.deadline.hit, "budget_exhausted but the budget was not spent");
+  if (r.reason != TerminationReason::kInvalidInput && ws.deadline.every_call) {
+    const double bound = Deadline::stretch_bound(chain.joint_count(), chain.dof_count(), 3 * goal_count);
+    REQUIRE(ws.deadline.longest_stretch <= bound, "a stretch of work without a clock reading (flops, bound)",
+            ws.deadline.longest_stretch, bound);
+  }
 
   if (r.reason == TerminationReason::kInvalidInput) {
     REQUIRE(!r.message.empty(), "invalid_input without a message");

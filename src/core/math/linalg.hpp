@@ -52,6 +52,7 @@ int jacobi_eigen(MatA& a, MatV& v, int k, Deadline* deadline = nullptr) {
     total += off;
     if (off <= kTol * kTol * total) return sweep;  // also off == 0 (a zero matrix included)
     if (deadline && k >= kJacobiDeadlineSize && deadline->spent()) return -1;
+    if (deadline) deadline->charge(6.0 * k * k * k);  // k^2 / 2 rotations of 3 k-long updates
     for (int p = 0; p < k; ++p) {
       for (int q = p + 1; q < k; ++q) {
         const double apq = a(p, q);

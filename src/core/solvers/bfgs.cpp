@@ -201,6 +201,7 @@ class Bfgs {
     double trace = 0.0;
     for (int a = 0; a < rows_; ++a) {
       if (a > 0 && ws_.deadline.spent()) return false;
+      ws_.deadline.charge(static_cast<double>(a + 1) * J.cols());
       for (int b = 0; b <= a; ++b) A(a, b) = J.row(a).dot(J.row(b));
       trace += A(a, a);
     }

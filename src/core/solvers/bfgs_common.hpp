@@ -35,6 +35,7 @@ inline bool symmetric_product(const Eigen::MatrixXd& H, const Eigen::VectorXd& x
   out.setZero();
   for (int j = 0; j < n; ++j) {
     if (spent_at_column(deadline, j)) return false;
+    if (deadline) deadline->charge(2.0 * n);  // this column and its mirror: 2 (n - j) on average ~ n
     const int below = n - j - 1;
     const auto col = H.col(j).tail(below);
     out[j] += H(j, j) * x[j] + col.dot(x.tail(below));
@@ -71,6 +72,7 @@ inline void update_inverse_hessian(Eigen::MatrixXd& H, const Eigen::VectorXd& s,
       fresh = true;
       return;
     }
+    if (deadline) deadline->charge(2.0 * (n - j));
     const double sj = s[j], hj = hy[j];
     const double a = ss * sj - rho * hj;
     const double b = -rho * sj;

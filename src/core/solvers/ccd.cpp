@@ -57,6 +57,7 @@ double sweep(const Chain& chain, Span<const Goal> goals, const SolverOptions& op
   double largest = 0.0;
   for (int j = n - 1; j >= 0; --j) {
     if (ws.deadline.spent_after_joints(n - 1 - j)) break;  // the time budget, within a long sweep
+    ws.deadline.charge(Deadline::kFlopsPerFit);
     const glm::dvec3 origin = ws.joint_origins[j];
     const glm::dquat applied = geometric::fit_joint(chain, goals, tracked, j, origin, ws.joint_pre_rotations[j],
                                                     options.max_step_angle, params);

@@ -120,7 +120,9 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
           auto largest_turn = [&]() {
             return Eigen::Map<const Eigen::VectorXd>(step, active).lpNorm<Eigen::Infinity>();
           };
-          while (chain.any_limits() && mu < o.dls_max_damping && largest_turn() > kMaxStepTurn) {
+          // Each retry is a step of O(k n): the time budget is read between them.
+          while (chain.any_limits() && mu < o.dls_max_damping && largest_turn() > kMaxStepTurn &&
+                 !ws.deadline.spent()) {
             mu = std::min(mu * kTrustDampingGrowth, o.dls_max_damping);
             predicted_decrease = model.damped_step(mu, step);
           }

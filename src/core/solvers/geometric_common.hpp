@@ -211,6 +211,8 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
   glm::dquat parent(1.0, 0.0, 0.0, 0.0);  // Q_{j-1} of the updated chain
   for (int j = 0; j < n; ++j) {
     if (deadline && deadline->spent_after_joints(j)) break;
+    // A fit, and for a ball the rigid motion of every point after it (~30 flops each).
+    if (deadline) deadline->charge(Deadline::kFlopsPerFit + 30.0 * (n - j));
     if (j > 0) {
       origin += parent * chain.offset_translation(j);
       sums.add(old_point(j) - root, desired[j] - root, -1.0);  // now k = j+1..n

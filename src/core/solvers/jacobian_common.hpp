@@ -115,6 +115,7 @@ class SinglePositionModel {
       // drift by ~1e-16 per joint, far below any tolerance even at 100 joints.
       joint_origins[i] = origin;
     }
+    ws_.deadline.charge(Deadline::kFlopsPerJoint * effector_);
     if (effector_ < chain_.joint_count())
       effector_trial_ = origin + rotate_coded(q, chain_.offset_translation(effector_),
                                               Direction(chain_.offset_direction(effector_)));
@@ -196,6 +197,7 @@ class SinglePositionModel {
       }
     }
     gram_ << a00, a01, a02, a01, a11, a12, a02, a12, a22;
+    ws_.deadline.charge(Deadline::kFlopsPerJacobianEntry * 3.0 * active_dofs_);
     decomposed_ = false;
   }
 
@@ -400,21 +402,26 @@ class GoalModel {
     auto J = ws_.jacobian.topRows(m_);
     auto e = ws_.residual.head(m_);
     auto t = ws_.dof_vec_a.head(k_);
+    stopped_ = false;
     if (row_form_) {
       auto A = ws_.goal_square.topLeftCorner(k_, k_);
       auto V = ws_.dof_square.topLeftCorner(k_, k_);
-      A.noalias() = J * J.transpose();
+      if (!gram_rows(J, A)) return;
       trace_ = A.trace();
-      jacobi_eigen(A, V, k_, &ws_.deadline);
+      stopped_ = jacobi_eigen(A, V, k_, &ws_.deadline) < 0;
+      if (stopped_) return;
       t.noalias() = V.transpose() * e;
       gradient_norm2_ = 0.0;
       for (int i = 0; i < k_; ++i) gradient_norm2_ += std::max(A(i, i), 0.0) * t[i] * t[i];
     } else {
       auto A = ws_.dof_square.topLeftCorner(k_, k_);
       auto W = ws_.goal_square.topLeftCorner(k_, k_);
+      // m >= n here, and m is 3 per goal: a product of a few thousand flops, never split.
       A.noalias() = J.transpose() * J;
+      ws_.deadline.charge(static_cast<double>(k_) * k_ * m_);
       trace_ = A.trace();
-      jacobi_eigen(A, W, k_, &ws_.deadline);
+      stopped_ = jacobi_eigen(A, W, k_, &ws_.deadline) < 0;
+      if (stopped_) return;
       ws_.gradient.noalias() = J.transpose() * e;
       gradient_norm2_ = ws_.gradient.squaredNorm();
       t.noalias() = W.transpose() * ws_.gradient;
@@ -448,6 +455,33 @@ class GoalModel {
   }
 
  private:
+  // A = J J^T (m x m, m < n). On hundreds of DOFs with several goals the product alone outgrows the
+  // budget's 20 us of slack (m^2 n flops: 135k on 600 DOF with 5 goals), and the active set repeats
+  // it per freeze pass, so above kGramFlopsPerCheck it is formed kGramRowsPerCheck rows at a time
+  // with a clock reading between (issue 16, item 6). False, and stopped_, when the budget ran out
+  // (A is then incomplete: no step). Below, one product as before (the same rounding).
+  static constexpr double kGramFlopsPerCheck = 20000.0;
+  static constexpr int kGramRowsPerCheck = 3;
+  template <class MatJ, class MatA>
+  bool gram_rows(const MatJ& J, MatA& A) {
+    const double flops = static_cast<double>(m_) * m_ * n_;
+    if (flops <= kGramFlopsPerCheck) {
+      A.noalias() = J * J.transpose();
+      ws_.deadline.charge(flops);
+      return true;
+    }
+    for (int r = 0; r < m_; r += kGramRowsPerCheck) {
+      if (r > 0 && ws_.deadline.spent()) {
+        stopped_ = true;
+        return false;
+      }
+      const int rows = std::min(kGramRowsPerCheck, m_ - r);
+      A.middleRows(r, rows).noalias() = J.middleRows(r, rows) * J.transpose();
+      ws_.deadline.charge(static_cast<double>(rows) * m_ * n_);
+    }
+    return true;
+  }
+
   // Step h = J^+_f e for the filter f(lambda) into step_out (n entries). Returns the linear model's
   // decrease 0.5 (|e|^2 - |e - J h|^2). With `pinv_unreachable` set (pseudo-inverse), also stores
   // the predicted change J h in goal_vec and returns |e - J h| through the pointer.
@@ -457,6 +491,15 @@ class GoalModel {
     auto t = ws_.dof_vec_a.head(k_);
     Eigen::Map<Eigen::VectorXd> h(step_out, n_);
     double decrease = 0.0;
+    if (stopped_) {  // the budget stopped the decomposition: no step, nothing predicted
+      h.setZero();
+      if (pinv_unreachable) {
+        ws_.goal_vec.head(m_).setZero();
+        *pinv_unreachable = residual_norm();
+      }
+      return 0.0;
+    }
+    ws_.deadline.charge(static_cast<double>(k_) * (k_ + n_) + (pinv_unreachable ? static_cast<double>(m_) * n_ : 0.0));
     if (row_form_) {
       const auto A = ws_.goal_square.topLeftCorner(k_, k_);
       const auto V = ws_.dof_square.topLeftCorner(k_, k_);
@@ -505,6 +548,7 @@ class GoalModel {
   GoalErrors errors_, errors_trial_;
   double trace_ = 0.0;
   double gradient_norm2_ = 0.0;
+  bool stopped_ = false;  // the time budget stopped the last refactor(): no step from it
 };
 
 // ------------------------------------------------------------------------------------------------
@@ -519,6 +563,7 @@ inline void make_trial(const Chain& chain, const SolverOptions& o, const double*
   std::copy(params, params + n, trial);
   apply_step(chain, step, o.max_step_angle, trial);
   project_to_limits(chain, trial);
+  ws.deadline.charge(2.0 * Deadline::kFlopsPerJoint * chain.joint_count());  // about two FK passes
 }
 
 // Limit-aware steps (an active set; the one mechanism DLS and the pseudo-inverse share, with the

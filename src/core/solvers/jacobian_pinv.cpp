@@ -146,6 +146,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     double best_trial_cost = cost, best_s = 0.0, best_threshold = 0.0;
     bool evaluated_is_best = false;
     double last_threshold = -1.0;
+    int trials = 0;
     for (int level = 0; level < kTruncationLevels; ++level) {
       const bool lenient = level == kTruncationLevels - 1;
       const double threshold = std::max(o.pinv_singular_threshold, kTruncation[level] * model.jacobian_norm());
@@ -159,6 +160,10 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
       if (s * largest > kFirstTryAngle) s = kFirstTryAngle / largest;
       evaluated_is_best = false;
       for (int halvings = 0; promised > 0.0; ++halvings) {
+        // One iteration can try kTruncationLevels x pinv_max_halvings trials, each an FK pass (15-20
+        // us on 180 limited joints): the time budget is read before each but the first, the first
+        // of a later level included, or the last iteration overruns it by that many passes.
+        if (trials++ > 0 && ws.deadline.spent()) break;
         for (int j = 0; j < active; ++j) ws.gradient_trial[j] = s * ws.step[j];
         jacobian::make_trial(chain, o, params, ws.gradient_trial.data(), ws);
         const double trial_cost = model.evaluate(ws.params_trial.data());
@@ -175,9 +180,6 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
           break;
         }
         if (halvings >= o.pinv_max_halvings) break;
-        // One iteration can try kTruncationLevels x pinv_max_halvings trials: the time budget is
-        // checked between them too, or the last iteration overruns it by that many FK passes.
-        if (ws.deadline.spent()) break;
         s *= 0.5;
       }
       if (best_s >= kGoodFraction || ws.deadline.hit) break;

@@ -360,12 +360,14 @@ class Escapes {
     if (full_ % 2 == 1 && unpin(active, params)) return true;
     // 1. Toward the rest pose, in the null space of J, the hinges on a bound it would push out
     //    left out - kept when it moves the pose off the stationary point.
+    if (ran_out(before, params)) return false;
     linearize(params);
     project_within_limits(active, params, step, [&](double* v) { toward_rest(active, params, v); });
     if (largest(active, step) > kMinEscapeAngle && move(step, before, params)) return true;
     // 2. The fixed kick direction in the null space of J, with the sign that pushes no hinge on a
     //    bound out (the null space is symmetric); failing both signs, without the hinges that it
     //    pushes out; failing that (no null space left), the kick itself.
+    if (ran_out(before, params)) return false;
     std::copy(before, before + n, params);
     linearize(params);
     kick_direction(active, params, step);
@@ -392,6 +394,14 @@ class Escapes {
 
  private:
   enum State { kUnknown, kReachable, kOutOfReach };
+
+  // The time budget between an escape's phases: each costs several FK and Jacobian passes and, on
+  // long chains, Gram products (issue 16, item 6). Spent: params back to `before`, no escape.
+  bool ran_out(const double* before, double* params) {
+    if (!ws_.deadline.spent()) return false;
+    std::copy(before, before + chain_.dof_count(), params);
+    return true;
+  }
   bool restarts_follow() const { return options_.max_restarts > 0; }
 
   // The gentle escape: the null-space step toward the rest pose and, failing that, the kick (steps
@@ -402,6 +412,7 @@ class Escapes {
     project_within_limits(active, params, step, [&](double* v) { toward_rest(active, params, v); });
     if (largest(active, step) > kGentleStep) scale(active, kGentleStep / largest(active, step), step);
     if (largest(active, step) > kMinEscapeAngle && move(step, before, params)) return true;
+    if (ran_out(before, params)) return false;
     std::copy(before, before + chain_.dof_count(), params);
     linearize(params);
     kick_direction(active, params, step);
@@ -586,7 +597,8 @@ class Escapes {
       auto V = ws_.dof_square.topLeftCorner(m, m);
       A.noalias() = J * J.transpose();
       const double floor = truncation_floor(A.trace());
-      linalg::jacobi_eigen(A, V, m);
+      const int sweeps = linalg::jacobi_eigen(A, V, m);
+      ws_.deadline.charge(static_cast<double>(m) * m * active + 6.0 * m * m * m * sweeps + 2.0 * m * active);
       auto y = ws_.goal_vec.head(m);
       auto t = ws_.dof_vec_a.head(m);
       y.noalias() = J * zv;
@@ -599,7 +611,8 @@ class Escapes {
       auto W = ws_.goal_square.topLeftCorner(active, active);
       A.noalias() = J.transpose() * J;
       const double floor = truncation_floor(A.trace());
-      linalg::jacobi_eigen(A, W, active);
+      const int sweeps = linalg::jacobi_eigen(A, W, active);
+      ws_.deadline.charge(static_cast<double>(active) * active * m + 6.0 * active * active * active * sweeps);
       auto t = ws_.dof_vec_a.head(active);
       t.noalias() = W.transpose() * zv;
       for (int i = 0; i < active; ++i) t[i] = A(i, i) > floor ? t[i] : 0.0;

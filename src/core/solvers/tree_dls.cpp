@@ -739,6 +739,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (!chorded) {
         tree_dof_axes(tree, params, ws);  // ws holds the FK of params (the accepted trial's)
         model.linearize();
+        if (ws.deadline.spent()) break;  // between the linearisation and the step's factorisation
       }
     }
     // A capped posture step from near the goals (posture_iterations) may leave them anywhere within
@@ -760,7 +761,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = accept(trial, trial_posture);
-      if (!trial_ok && (model.level_count() > 1 || !problem.posture.empty()) &&
+      if (!trial_ok && (model.level_count() > 1 || !problem.posture.empty()) && !ws.deadline.spent() &&
           model.correct(ws.params_trial.data(), ws.residual_trial)) {
         // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
         ws.dof_vec_b = ws.params_trial;
@@ -774,6 +775,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     if (!trial_ok && chorded) {
       // The chord step fell short: a full step from a fresh J (the damping stays).
       tree_forward_kinematics(tree, params, ws);
+      if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
       tree_dof_axes(tree, params, ws);
       model.linearize();
       continue;
@@ -817,6 +819,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (goals_left && creep_steps >= kStallIterations &&
           (tighten() || (any_pinned(tree, ws, model.columns(), params) && escape_stuck())))
         continue;
+      if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
       const bool kept_met = was_met && current.all_met() && step_posture_gain > 0.0;
       posture_chords = chorded && kept_met ? posture_chords + 1 : 0;
       if (!model.cut() && (gain >= kChordGain || (kept_met && posture_chords < kMaxPostureChords))) {
