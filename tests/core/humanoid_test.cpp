@@ -104,27 +104,45 @@ Jump track(SolverKind kind, const Chain& c, const SolverOptions& o, std::mt19937
 // moves < 1.5 deg a frame), and none by more than 30 deg at all. Measured: worst excess 22.0 deg
 // (BFGS), <= 10.7 deg for the others; b0e1161: 62.9 deg (BFGS, CCD), 8-9 of 100 CCD runs and up to
 // 3 of 100 BFGS runs above 30 deg.
-// FABRIK is not covered: its hinge chains still flip (up to 168 deg; see the report of item 18).
-TEST(Humanoid, Item18HingeLimitsTrackWithoutJumps) {
-  for (SolverKind kind : {SolverKind::kDLS, SolverKind::kJacobianPinv, SolverKind::kBFGS, SolverKind::kCCD}) {
-    for (const Limb& limb : limbs()) {
-      const Chain c = test::humanoid::chain(limb.joints, limb.tip, true, 0.0, 150.0 * kDeg);
-      std::mt19937 rng(18);
-      int jumps = 0;
-      Jump worst;
-      for (int run = 0; run < 100; ++run) {
-        const Jump j = track(kind, c, node_options(), rng, 120, 3.0);
-        if (j.turn > 30.0 * kDeg) ++jumps;
-        if (j.excess > worst.excess) worst = j;
-      }
-      const std::string what = std::string(to_string(kind)) + " " + limb.joints[0] + ": frame " +
-                               std::to_string(worst.frame) + ", turn " + std::to_string(worst.turn / kDeg) +
-                               " deg, escapes " + std::to_string(worst.escapes);
-      EXPECT_EQ(jumps, 0) << what;
-      EXPECT_LT(worst.excess, 25.0 * kDeg) << what;
-      EXPECT_LT(worst.target_turn, 1.5 * kDeg) << what;  // the premise: a smooth target
+// FABRIK is not covered here: Humanoid.DISABLED_Item18FabrikHingeLimitsTrackWithoutJumps.
+void expect_hinge_limbs_track_without_jumps(SolverKind kind) {
+  for (const Limb& limb : limbs()) {
+    const Chain c = test::humanoid::chain(limb.joints, limb.tip, true, 0.0, 150.0 * kDeg);
+    std::mt19937 rng(18);
+    int jumps = 0;
+    Jump worst;
+    for (int run = 0; run < 100; ++run) {
+      const Jump j = track(kind, c, node_options(), rng, 120, 3.0);
+      if (j.turn > 30.0 * kDeg) ++jumps;
+      if (j.excess > worst.excess) worst = j;
     }
+    const std::string what = std::string(to_string(kind)) + " " + limb.joints[0] + ": frame " +
+                             std::to_string(worst.frame) + ", turn " + std::to_string(worst.turn / kDeg) +
+                             " deg, escapes " + std::to_string(worst.escapes);
+    std::printf("  %s: %d of 100 runs jump > 30 deg, worst excess %.1f deg\n", what.c_str(), jumps, worst.excess / kDeg);
+    EXPECT_EQ(jumps, 0) << what;
+    EXPECT_LT(worst.excess, 25.0 * kDeg) << what;
+    EXPECT_LT(worst.target_turn, 1.5 * kDeg) << what;  // the premise: a smooth target
   }
+}
+
+TEST(Humanoid, Item18HingeLimitsTrackWithoutJumps) {
+  for (SolverKind kind : {SolverKind::kDLS, SolverKind::kJacobianPinv, SolverKind::kBFGS, SolverKind::kCCD})
+    expect_hinge_limbs_track_without_jumps(kind);
+}
+
+// The same runs with FABRIK: the target it does not meet yet (disabled; run it with
+// --gtest_also_run_disabled_tests). Measured on this branch: 32-51 of 100 runs per limb jump by
+// more than 30 deg (worst 151-178 deg beyond the target's motion). The jumps start from a straight
+// limb with its hinge on the bound 0 and the target a little closer (the path's knee or elbow bent
+// 1-3 deg): FABRIK's forward stage asks for a bend in the direction the target moved, and the ball
+// before the hinge twists the hinge's plane there (aim_chain_at_points), by up to 180 deg for a
+// bend of a degree or two; most worst frames also used a second escape (a full one, stuck.hpp).
+// Tried and not enough: damping that twist toward the current plane (32-45 runs), leaving a
+// straight limb only by the gentle escape (23-51 runs), and keeping that twist within +-90 deg
+// (29-48 runs, and Issue16.FabrikBendsAStraightLegWhileTracking fails).
+TEST(Humanoid, DISABLED_Item18FabrikHingeLimitsTrackWithoutJumps) {
+  expect_hinge_limbs_track_without_jumps(SolverKind::kFABRIK);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -511,6 +511,13 @@ double rotation_angle(const glm::dquat& q, const glm::dquat& r) {
   return 2.0 * std::acos(std::min(1.0, std::abs(glm::dot(q, r))));
 }
 
+// Frames per run of the straight-leg tracking runs (the first from the straight rest pose).
+constexpr int kStraightLegFrames = 121;
+struct StraightLegTracking {
+  double worst_error = 0.0, worst_excess = -INFINITY;
+  std::vector<int> iterations;  // of every frame of every run, run by run
+};
+
 // Item 13: FABRIK on a humanoid leg (SkeletonProfileHumanoid rests: a ball hip, a knee hinge about
 // its own +X in [0, 150 deg], 0.375 m bones), straight at rest with the knee on its limit 0,
 // tracking a foot target with the node's defaults (64 iterations, 1e-4 m, warm, no restarts). The
@@ -523,8 +530,9 @@ double rotation_angle(const glm::dquat& q, const glm::dquat& r) {
 // b0e1161: FABRIK swung the straight leg toward the target slower with every sweep, the knee
 // clipped on its limit, and ended 0.18-0.21 m off in 18 of 100 runs, turning joints by up to
 // 174 deg in one frame once it bent.
-TEST(Issue16, FabrikBendsAStraightLegWhileTracking) {
+StraightLegTracking track_from_a_straight_leg(SolverKind kind) {
   namespace h = test::humanoid;
+  StraightLegTracking out;
   const Chain leg = h::chain({"LeftUpperLeg", "LeftLowerLeg"}, "LeftFoot", true, 0.0, 150.0 * so3::kPi / 180.0);
   const double bone = 0.375, deg = so3::kPi / 180.0;
   SolverOptions o;  // the IKChain node's defaults
@@ -533,26 +541,28 @@ TEST(Issue16, FabrikBendsAStraightLegWhileTracking) {
   Workspace ws(leg, 1), path_ws(leg, 1);
   std::mt19937 rng(13);
   std::uniform_real_distribution<double> u(-1.0, 1.0), u01(0.0, 1.0);
-  double worst_error = 0.0, worst_excess = -INFINITY;
+  double& worst_error = out.worst_error;
+  double& worst_excess = out.worst_excess;
   for (int run = 0; run < 100; ++run) {
     Eigen::VectorXd a(4), b(4);
     a << 0.6 * u(rng), 0.6 * u(rng), 0.6 * u(rng), (10.0 + 30.0 * u01(rng)) * deg;
     b << 0.6 * u(rng), 0.6 * u(rng), 0.6 * u(rng), (10.0 + 30.0 * u01(rng)) * deg;
     Eigen::VectorXd p = Eigen::VectorXd::Zero(leg.dof_count());  // straight, the knee on its limit
     forward_kinematics(leg, p.data(), ws);
-    ASSERT_TRUE(hinge_blocked(leg, 1, p.data(), -1.0));
+    EXPECT_TRUE(hinge_blocked(leg, 1, p.data(), -1.0));
     const glm::dvec3 hip = ws.joint_origins[0];
     glm::dquat last[2];
     glm::dvec3 last_target(0.0);
     double last_bend = 0.0;
-    for (int f = 0; f <= 120; ++f) {
-      const double s = 0.5 - 0.5 * std::cos(so3::kPi * f / 120.0);
+    for (int f = 0; f < kStraightLegFrames; ++f) {
+      const double s = 0.5 - 0.5 * std::cos(so3::kPi * f / (kStraightLegFrames - 1));
       const Eigen::VectorXd q = a + (b - a) * s;
       forward_kinematics(leg, q.data(), path_ws);
       const glm::dvec3 target = path_ws.tip;
       const Goal g = Goal::position(target);
-      const SolveResult r = solve(SolverKind::kFABRIK, leg, Span<const Goal>(&g, 1), o, ws, p);
-      ASSERT_TRUE(r.usable());
+      const SolveResult r = solve(kind, leg, Span<const Goal>(&g, 1), o, ws, p);
+      out.iterations.push_back(r.iterations);
+      EXPECT_TRUE(r.usable());
       EXPECT_EQ(r.restarts, 0);
       forward_kinematics(leg, p.data(), ws);
       const double error = glm::length(ws.tip - target);
@@ -574,8 +584,53 @@ TEST(Issue16, FabrikBendsAStraightLegWhileTracking) {
       last_bend = bend;
     }
   }
-  std::printf("[ item 13 ] worst error %.3g m, worst joint turn beyond the target's motion %.2f deg\n", worst_error,
-              worst_excess / deg);
+  return out;
+}
+
+// The mean iterations a frame, over every frame and over the runs' first frames (the straight rest).
+struct StraightLegIterations {
+  double mean = 0.0, first_frame_mean = 0.0;
+};
+StraightLegIterations straight_leg_iterations(const StraightLegTracking& t) {
+  StraightLegIterations out;
+  int first_frames = 0;
+  for (size_t i = 0; i < t.iterations.size(); ++i) {
+    out.mean += t.iterations[i];
+    if (i % size_t(kStraightLegFrames) == 0) {
+      out.first_frame_mean += t.iterations[i];
+      ++first_frames;
+    }
+  }
+  out.mean /= std::max<size_t>(t.iterations.size(), 1);
+  out.first_frame_mean /= std::max(first_frames, 1);
+  return out;
+}
+
+TEST(Issue16, FabrikBendsAStraightLegWhileTracking) {
+  const StraightLegTracking t = track_from_a_straight_leg(SolverKind::kFABRIK);
+  const StraightLegIterations it = straight_leg_iterations(t);
+  std::printf("[ item 13 ] worst error %.3g m, worst joint turn beyond the target's motion %.2f deg, "
+              "iterations a frame: mean %.1f, on first frames %.1f\n",
+              t.worst_error, t.worst_excess / (so3::kPi / 180.0), it.mean, it.first_frame_mean);
+  // Measured: 9.9 and 32.0 (the runs' first frames swing the straight leg far to the side).
+  EXPECT_LE(it.mean, 12.0);
+  EXPECT_LE(it.first_frame_mean, 40.0);
+}
+
+// Item 13's sibling: CCD on the same runs. The target (disabled; run it with
+// --gtest_also_run_disabled_tests): every frame within 1 mm and no jump, as FABRIK, in few
+// iterations - a mean of at most 8 a frame and at most 16 on a run's first frame (FABRIK: 9.9 and
+// 32; DLS, the pseudo-inverse and BFGS: 1.0-1.1 and 5.6-11.7). Measured on this branch: a mean of
+// 31.0 iterations a frame (median 27), 62.5 on first frames (the cap is 64), and
+// frames ending up to 14 mm off. CCD already takes the straight-knee escape FABRIK takes
+// (geometric::Progress); its slowness is the sweeps after it.
+TEST(Issue16, DISABLED_CcdBendsAStraightLegInFewIterations) {
+  const StraightLegTracking t = track_from_a_straight_leg(SolverKind::kCCD);
+  const StraightLegIterations it = straight_leg_iterations(t);
+  std::printf("[ item 13, CCD ] worst error %.3g m, iterations a frame: mean %.1f, on first frames %.1f\n",
+              t.worst_error, it.mean, it.first_frame_mean);
+  EXPECT_LE(it.mean, 8.0);
+  EXPECT_LE(it.first_frame_mean, 16.0);
 }
 
 // ------------------------------------------------------------------------------------ item 14
