@@ -752,7 +752,7 @@ func test_posture_stiffness_holds_the_torso_of_a_punching_body() -> void:
 	var torso := {}
 	for j in body.joints:
 		if j.bone_name in ["Spine", "Chest", "UpperChest", "Neck"]:
-			check_eq(j.posture_stiffness, 0.35, j.bone_name + ": the default posture_stiffness")
+			check_eq(j.posture_stiffness, 0.1, j.bone_name + ": the default posture_stiffness")
 			j.posture_stiffness = 1.0
 			torso[j.bone_name] = j
 	var head_joint := IKChainJoint.new()
@@ -959,8 +959,9 @@ func test_reach_and_return_leaves_no_bend_behind() -> void:
 	check(bend_far > bend_before + 0.2, "the far reach bends the spine: %.4f -> %.4f rad" % [bend_before, bend_far])
 	target.position = near
 	# A frame's first step near the goals carries the posture (IKBody.kPostureIterations = 1), a
-	# share (posture_stiffness) of the way back, so the spine gets back over a few frames, not in one.
-	for i in 12:
+	# share (posture_stiffness, 0.1) of the way back in the null space, so the spine eases back
+	# over a second or so, not in one frame (measured: 0.94 of the bend left per frame).
+	for i in 90:
 		await process_frame
 	var after := await _capture(skel, body)
 	check_le(_origin(skel, after, "LeftHand").distance_to(near), body.tolerance + FLOAT_SLACK, "the hand is back (m)")
