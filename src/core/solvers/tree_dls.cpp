@@ -67,7 +67,8 @@ constexpr double kChordGain = 0.99;
 // posture step reuses it and the factors too (a chord step: two triangular solves instead of a
 // linearisation, Gram matrix and factorisation) - at most this many in a row, so the null space
 // the posture moves in never lags the pose by more than a few small steps. A chord step the
-// comparison refuses falls back to a fresh linearisation, as every chord step does.
+// comparison refuses gets the second-order correction, then falls back to a fresh linearisation,
+// as every chord step does.
 constexpr int kMaxPostureChords = 3;
 // The shortest share of the posture step tried once every goal is met (each refused step quarters it).
 constexpr double kMinPostureGain = 1.0 / 64.0;
