@@ -19,6 +19,11 @@
 //    re-positioning, sec. 4.2). Forward kinematics of the resulting params then gives the exact
 //    pose - points and parameters never disagree.
 //    For an unconstrained ball chain this is exactly the paper's backward stage.
+//  - knees and elbows (a hinge right after a ball, planar) keep their bend plane and side from the
+//    warm pose: the forward stage places the hinge's point in that plane by the law of cosines
+//    (keep_bend_plane), and the ball's twist before a hinge is damped toward none
+//    (geometric::kTwistDamping): tracked limbs no longer flip their hinge's plane (issue 16,
+//    item 18). Not in the paper, whose constraints act in the backward stage only.
 //  - out of reach (one tip position goal at least the chain's length from the root), the first
 //    iteration aims every bone at the target: the straight line toward it, the optimum (Alg. 1,
 //    lines 4-9). Later iterations only matter under limits or hinges.
@@ -115,9 +120,92 @@ glm::dvec3 last_hinge_circle_pin(const Chain& chain, const glm::dquat& last_fram
   return center + out_dir * radius;
 }
 
+// The cosine below which a bone counts as perpendicular to a hinge's axis (keep_bend_plane).
+constexpr double kPlanarCosine = 1e-6;
+
+// Which hinges keep_bend_plane() places: hinge i right after a ball; or the last joint, a hinge
+// right after a hinge that follows a ball (an elbow after an upper arm hinged to a collarbone ball:
+// the ball's twist about the bone between them swivels the middle hinge's plane, so the two still
+// aim bone i - 1 anywhere about o_{i-1}). Applied to more hinges after hinges (every one, or every
+// one after a hinge after a ball), FABRIK reached fewer targets on limited hinge and mixed chains
+// (the 7-hinge chain of FABRIK.LimitsNeverViolatedAndFeasibleTargetsReached 0.807 -> 0.777; the
+// mixed7_restarts golden row no longer converged).
+bool keeps_bend_plane(const Chain& chain, int i) {
+  const int n = chain.joint_count();
+  if (i < 1 || chain.joint_type(i) != JointType::kHinge) return false;
+  if (chain.joint_type(i - 1) == JointType::kBall) return true;
+  return i == n - 1 && i >= 2 && chain.joint_type(i - 1) == JointType::kHinge &&
+         chain.joint_type(i - 2) == JointType::kBall;
+}
+
+// A knee's or elbow's bend plane and side kept from the warm pose (issue 16, items 13 and 18). A
+// position goal leaves a limb free to swivel about the line from its hip h = o_{i-1} to its target;
+// the textbook forward stage picks the swivel from where the target moved (it pulls b_i toward its
+// old place along the line from b_{i+1}), and the ball's twist in the backward stage
+// (aim_chain_at_points) then turned the hinge's plane there: by up to 180 deg in one frame for a
+// straight limb bending by a degree or two. For hinge i (keeps_bend_plane) whose bones are both
+// perpendicular to its axis k (a planar limb), b_i goes instead into the plane through h that
+// contains the line from h to b_{i+1} and is nearest the current bend plane (normal: k without its
+// part along that line), on the side of that line the hinge bends to now (straight: the side its
+// bound allows), at l_{i-1} from h and l_i from b_{i+1} (the law of cosines, as two_bone.cpp: the
+// backward stage then only turns the limb in that plane, and a ball + hinge limb reaches in one
+// iteration). Where no triangle closes (b_{i+1} beyond l_{i-1} + l_i from h, or nearer than their
+// difference), the textbook point projected into that plane and mirrored to that side. The other
+// hinges, and non-planar ones, keep the textbook point.
+void keep_bend_plane(const Chain& chain, const Workspace& ws, const double* params, int i, glm::dvec3& b_i,
+                     const glm::dvec3& b_next) {
+  const int n = chain.joint_count();
+  if (!keeps_bend_plane(chain, i)) return;
+  const glm::dvec3 h = ws.joint_origins[i - 1], o = ws.joint_origins[i];
+  const glm::dvec3 next = i + 1 < n ? ws.joint_origins[i + 1] : ws.tip;
+  const glm::dvec3 k = geometric::hinge_axis_in_base(chain, i, ws.joint_pre_rotations[i]);
+  const glm::dvec3 before = o - h, after = next - o;
+  const double lb = glm::length(before), la = glm::length(after);
+  if (!(lb > 0.0) || !(la > 0.0) || std::abs(glm::dot(k, before)) > kPlanarCosine * lb ||
+      std::abs(glm::dot(k, after)) > kPlanarCosine * la)
+    return;
+  const double tiny = 1e-12 * chain.total_length();
+  const double reach = glm::length(b_next - h);
+  if (!(reach > tiny)) return;
+  const glm::dvec3 line = (b_next - h) / reach;
+  glm::dvec3 normal;
+  if (!geometric::perpendicular_part(k, line, kPlanarCosine, normal)) return;  // k along the line
+  const glm::dvec3 x = b_i - normal * glm::dot(normal, b_i - h);
+  // The side: the sign of k . (before x after) now; straight, the one the hinge's bound allows.
+  const double bend = glm::dot(k, glm::cross(before, after)) / (lb * la);
+  double side = 0.0;
+  if (std::abs(bend) > geometric::Progress::kStraightSine)
+    side = bend > 0.0 ? 1.0 : -1.0;
+  else if (hinge_blocked(chain, i, params, -1.0))
+    side = 1.0;
+  else if (hinge_blocked(chain, i, params, 1.0))
+    side = -1.0;
+  // In the plane, off the line toward the side: for k . (before x after) > 0 the hinge's origin
+  // lies on the side of line x normal (before = x - h, after = b_next - x, both in the plane).
+  const glm::dvec3 off_line = glm::cross(line, normal);
+  const double x_side = glm::dot(off_line, x - h);
+  const double sign = side != 0.0 ? side : (x_side >= 0.0 ? 1.0 : -1.0);
+  // Where the hinge's origin must be for the limb to reach b_next from h (the law of cosines, as
+  // two_bone.cpp): at l_{i-1} from h and l_i from b_next. Out of that range, the textbook point
+  // in the plane (mirrored to the side).
+  const double l1 = chain.bone_length(i - 1), l2 = chain.bone_length(i);
+  if (reach <= l1 + l2 && reach >= std::abs(l1 - l2)) {
+    const double along = (reach * reach + l1 * l1 - l2 * l2) / (2.0 * reach);
+    const double height = std::sqrt(std::max(l1 * l1 - along * along, 0.0));
+    b_i = h + line * along + off_line * (sign * height);
+    return;
+  }
+  const glm::dvec3 rel = x - h;
+  const glm::dvec3 mirrored = x_side * sign < 0.0 ? h + line * (2.0 * glm::dot(line, rel)) - rel : x;
+  const glm::dvec3 dir = mirrored - b_next;
+  const double len = glm::length(dir);
+  if (len > tiny) b_i = b_next + dir * (l2 / len);
+}
+
 // Forward reaching stage into ws.points_aim[1..n] from the current points ws.points_current. `last_frame`:
 // the last joint's target frame (last_frame_target), or null.
-void forward_reaching(const Chain& chain, Span<const Goal> goals, const glm::dquat* last_frame, Workspace& ws) {
+void forward_reaching(const Chain& chain, Span<const Goal> goals, const glm::dquat* last_frame, const double* params,
+                      Workspace& ws) {
   const int n = chain.joint_count();
   const glm::dvec3* a = ws.points_current.data();
   glm::dvec3* b = ws.points_aim.data();
@@ -144,6 +232,7 @@ void forward_reaching(const Chain& chain, Span<const Goal> goals, const glm::dqu
       len = glm::length(dir);
     }
     b[i] = len > 0.0 ? b[i + 1] + dir * (chain.bone_length(i) / len) : b[i + 1];
+    keep_bend_plane(chain, ws, params, i, b[i], b[i + 1]);
   }
 }
 
@@ -176,7 +265,7 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
     } else {
       for (int k = 0; k < n; ++k) ws.points_current[k] = ws.joint_origins[k];
       ws.points_current[n] = ws.tip;
-      forward_reaching(chain, goals, has_last_frame ? &last_frame : nullptr, ws);
+      forward_reaching(chain, goals, has_last_frame ? &last_frame : nullptr, params, ws);
     }
     std::copy(params, params + chain.dof_count(), ws.params_trial.data());
     geometric::PointPair axis_point;  // the last hinge's axis: where it is, where the goal wants it

@@ -136,6 +136,18 @@ inline double turn_hinge(const Chain& chain, int j, double angle, double max_ste
   return turn_hinge_param(chain.limits(j), angle, max_step_angle, params + chain.dof_offset(j));
 }
 
+// The ball's twist before a hinge in aim_chain_at_points maximises sum b . R(t) a plus this share
+// of sum |a| |b| times cos t (a prior toward no twist, as Levenberg-Marquardt's damping): the
+// points after the ball pull the twist only as far as they lie off its axis. On a nearly straight
+// limb (a collarbone, a hinged upper arm at its bound 0 and an elbow bent 2 deg) they lie almost on
+// it, the fit is flat, and the undamped angle turned the whole arm by 30-90 deg in a frame's few
+// iterations (issue 16, item 18: Humanoid.Item18FabrikHingeLimitsTrackWithoutJumps, the arms from
+// the collarbone; 0 runs of 100 jump with 1e-2, 4-6 with 1e-3, 5-7 with 1e-4, 6-9 undamped). On a
+// leg whose knee is bent 10 deg the foot's own pull is about 0.6 of the prior's; FABRIK's forward
+// stage puts a knee's points in its current plane there (keep_bend_plane, fabrik.cpp), so little
+// twist is asked for.
+constexpr double kTwistDamping = 1e-2;
+
 // Running sums over the points k = j+1..n of one pass: the current points x_k and the desired
 // points y_k (both relative to the root, which keeps the sums' rounding at the chain's scale), so
 // that a hinge's least-squares fit over every point after it costs O(1) instead of O(n).
@@ -231,10 +243,12 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
         // A hinge next can only bend in its own plane, which the minimal rotation leaves where it
         // was: a hip swung toward a knee point keeps the knee's plane away from the foot's target
         // (FABRIK then stalls on legs with hinge knees). So the ball also twists about its new
-        // bone direction (o_{j+1} stays put) by the angle that best aligns the points after it.
+        // bone direction (o_{j+1} stays put) by the angle that best aligns the points after it,
+        // damped toward no twist (kTwistDamping).
         if (j + 1 < n && chain.joint_type(j + 1) == JointType::kHinge && glm::length(aim) > tiny) {
           const glm::dvec3 bone = glm::normalize(aim);
-          const HingeFit fit = sums.fit(bone, glm::normalize(applied * moved), old_origin - root, origin - root);
+          HingeFit fit = sums.fit(bone, glm::normalize(applied * moved), old_origin - root, origin - root);
+          fit.c += kTwistDamping * fit.scale;
           turn_ball(chain, j, pre, glm::angleAxis(fit.angle(), bone), max_step_angle, params);
         }
         break;
