@@ -171,7 +171,11 @@ try {
 
   // Missile guidance.
   await page.click('#tab-missile');
+  // At least 12 s of simulation; on a loaded machine the frames come slower, so up to 60 s for the
+  // third shot and a hit (the checks below still fail if they never come).
   await page.waitForTimeout(12_000);
+  await page.waitForFunction(() => window.__ikdemo.missile.shots >= 3 && window.__ikdemo.missile.hits >= 1,
+                             null, { timeout: 48_000 }).catch(() => {});
   const m = await page.evaluate(() => window.__ikdemo.missile);
   check('missile view: the launcher fires', m.shots >= 3, `${m.shots} shots`);
   check('missile view: PN missiles hit', m.hits >= 1, `${m.hits} hits of ${m.shots}`);
