@@ -6,8 +6,9 @@
 #include <cmath>
 #include <random>
 
-#include "core/ikchain.hpp"
-#include "core/so3.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/so3.hpp"
+#include "joint_desc.hpp"
 
 namespace ikchain {
 namespace bench {
@@ -25,14 +26,7 @@ inline ChainBuilder ball_arm_builder() {
   shoulder.limits.twist_min = -kPi / 6.0;
   shoulder.limits.twist_max = kPi / 6.0;
   b.add_joint(shoulder);
-  JointDesc elbow;
-  elbow.type = JointType::kHinge;
-  elbow.hinge_axis = glm::dvec3(0, 0, 1);
-  elbow.offset_translation = glm::dvec3(0, 0.30, 0);
-  elbow.limits.has_hinge_limit = true;
-  elbow.limits.hinge_min = 0.0;
-  elbow.limits.hinge_max = 2.6;
-  b.add_joint(elbow);
+  b.add_joint(hinge_joint(glm::dvec3(0, 0, 1), glm::dvec3(0, 0.30, 0), 0.0, 2.6));  // the elbow
   JointDesc wrist;
   wrist.type = JointType::kBall;
   wrist.offset_translation = glm::dvec3(0, 0.27, 0);

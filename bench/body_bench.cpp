@@ -36,7 +36,7 @@
 #include "body_model.hpp"
 #include "body_solvers.hpp"
 #include "bvh.hpp"
-#include "core/options.hpp"
+#include "ikchain/options.hpp"
 
 namespace {
 

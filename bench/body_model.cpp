@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 
 namespace body {
 

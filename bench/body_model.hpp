@@ -15,7 +15,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "bvh.hpp"
-#include "core/chain.hpp"
+#include "ikchain/chain.hpp"
 
 namespace body {
 

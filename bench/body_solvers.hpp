@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "body_model.hpp"
-#include "core/options.hpp"
+#include "ikchain/options.hpp"
 
 namespace body {
 

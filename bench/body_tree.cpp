@@ -10,10 +10,10 @@
 
 #include <Eigen/Dense>
 
-#include "core/so3.hpp"
-#include "core/solve.hpp"
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/so3.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
 #endif
 
 namespace body {

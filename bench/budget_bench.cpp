@@ -34,10 +34,11 @@
 #include <vector>
 
 #include "bench_common.hpp"
-#include "core/ikchain.hpp"
-#include "core/kinematics.hpp"
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "joint_desc.hpp"  // ikchain::bench; the JSON helpers are ::bench (bench_common.hpp)
+#include "ikchain/ikchain.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
 
 using namespace ikchain;
 
@@ -128,20 +129,7 @@ Chain random_chain(Rng& r, Shape shape, int n) {
 
 // A leg (hip ball, knee hinge on its limit at 0 with the leg straight), the foot target closer.
 Chain straight_leg() {
-  ChainBuilder b;
-  JointDesc hip;
-  hip.limits.has_cone_limit = true;
-  hip.limits.cone_angle = 1.5;
-  b.add_joint(hip);
-  JointDesc knee;
-  knee.type = JointType::kHinge;
-  knee.hinge_axis = glm::dvec3(1, 0, 0);
-  knee.offset_translation = glm::dvec3(0, -0.42, 0);
-  knee.limits.has_hinge_limit = true;
-  knee.limits.hinge_min = 0.0;
-  knee.limits.hinge_max = 2.6;
-  b.add_joint(knee);
-  b.set_tip_offset(glm::dvec3(0, -0.42, 0));
+  ChainBuilder b = ikchain::bench::straight_leg_builder(0.42, 0.42, /*hip_cone=*/1.5);
   Chain c;
   if (!b.build(c).ok()) std::abort();
   return c;
@@ -495,22 +483,22 @@ int main(int argc, char** argv) {
   std::printf("  %-16s %8s %10s %6s %12s %14s  %s\n", "solver", "solves", "exhausted", "over", "worst x bud",
               "worst excess", "worst case (budget_bench --seed S --case I)");
   stats.push_back(all);
-  std::string json = "{\"meta\": " + bench::meta_json_head(false) + ", \"seconds\": " + bench::json_number(seconds) +
+  std::string json = "{\"meta\": " + ::bench::meta_json_head(false) + ", \"seconds\": " + ::bench::json_number(seconds) +
                      ", \"seed\": " + std::to_string(seed) + ", \"deadline_clock\": " +
-                     bench::json_string(g_cpu_clock ? "thread_cpu" : "steady") +
+                     ::bench::json_string(g_cpu_clock ? "thread_cpu" : "steady") +
                      ", \"over_bound_first_run\": " + std::to_string(raw_over) + ", \"bound\": \"" +
                      std::to_string(kRatio).substr(0, 3) + " x budget + 20 us\"}, \"solvers\": [";
   for (size_t i = 0; i < stats.size(); ++i) {
     const Stats& s = stats[i];
     std::printf("  %-16s %8ld %10ld %6ld %11.3fx %+12.1f us  case %ld: %s\n", s.name.c_str(), s.solves, s.exhausted,
                 s.over, s.worst_ratio, s.worst_excess, s.worst_case, s.worst_what.c_str());
-    json += std::string(i ? ", " : "") + "{\"solver\": " + bench::json_string(s.name) +
+    json += std::string(i ? ", " : "") + "{\"solver\": " + ::bench::json_string(s.name) +
             ", \"solves\": " + std::to_string(s.solves) + ", \"budget_exhausted\": " + std::to_string(s.exhausted) +
             ", \"over_bound\": " + std::to_string(s.over) +
-            ", \"worst_cpu_over_budget\": " + bench::json_number(s.worst_ratio, "%.4f") +
-            ", \"worst_excess_us\": " + bench::json_number(s.worst_excess, "%.2f") +
+            ", \"worst_cpu_over_budget\": " + ::bench::json_number(s.worst_ratio, "%.4f") +
+            ", \"worst_excess_us\": " + ::bench::json_number(s.worst_excess, "%.2f") +
             ", \"worst_case\": " + std::to_string(s.worst_case) + ", \"worst_case_what\": " +
-            bench::json_string(s.worst_what) + "}";
+            ::bench::json_string(s.worst_what) + "}";
   }
   json += "]";
   std::printf("  over the bound by DOF: ");
@@ -521,13 +509,13 @@ int main(int argc, char** argv) {
     if (b + 1 < kBuckets) std::snprintf(label, sizeof label, "%d-%d", lo, bucket_top[b]);
     else std::snprintf(label, sizeof label, "%d+", lo);
     std::printf("%s%s: %ld of %ld", b ? ", " : "", label, bucket_over[b], bucket_solves[b]);
-    json += std::string(b ? ", " : "") + "{\"dofs\": " + bench::json_string(label) +
+    json += std::string(b ? ", " : "") + "{\"dofs\": " + ::bench::json_string(label) +
             ", \"solves\": " + std::to_string(bucket_solves[b]) + ", \"over_bound\": " + std::to_string(bucket_over[b]) + "}";
   }
   json += "]}\n";
   std::printf("\n");
   const std::string path = out_dir + "/budget.json";
-  if (bench::write_file(path, json)) std::printf("JSON: %s\n", path.c_str());
+  if (::bench::write_file(path, json)) std::printf("JSON: %s\n", path.c_str());
   std::printf("budget: %ld of %ld solves over %.2f x budget + %.0f us CPU (least of 3 runs; %ld on their first run)\n",
               all.over, all.solves, kRatio, kSlackUs, raw_over);
   return 0;

@@ -2,9 +2,9 @@
 #include <Eigen/Dense>
 
 #include "body_solvers.hpp"
-#include "core/kinematics.hpp"
-#include "core/solve.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/workspace.hpp"
 
 namespace body {
 namespace {

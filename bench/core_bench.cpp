@@ -44,7 +44,8 @@
 
 #include "ball_arm.hpp"
 #include "bench_common.hpp"
-#include "core/ikchain.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/ikchain.hpp"
 
 namespace {
 

@@ -22,7 +22,7 @@
 #include <kdl/chain.hpp>
 #include <kdl/frames.hpp>
 
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
 
 namespace robots {
 

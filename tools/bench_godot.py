@@ -125,7 +125,10 @@ def run_cost(proj, work, quick, name, joints, systems, script="bench.gd", extra=
            f"--systems={systems}"] + list(extra)
     t0 = time.time()
     lf = open(logp, "w")
-    proc = subprocess.Popen(cmd, cwd=proj, env=godot_env(work, name), stdout=lf, stderr=subprocess.STDOUT,
+    # No wall-clock safety cap under callgrind (src/godot/ik_modifier.cpp, time_cap_usec()): the code
+    # runs 20-100x slower there, so the cap would cut solves short by the machine's load.
+    env = dict(godot_env(work, name), IKCHAIN_TIME_CAP_USEC="0")
+    proc = subprocess.Popen(cmd, cwd=proj, env=env, stdout=lf, stderr=subprocess.STDOUT,
                             stdin=subprocess.DEVNULL)
     try:
         # Start-up runs uninstrumented (Godot's start-up under full callgrind takes many minutes:

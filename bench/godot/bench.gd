@@ -1,4 +1,4 @@
-extends SceneTree
+extends "res://bench/common.gd"
 ## IKChain next to Godot 4.6's own IK nodes, in one headless Godot process. Run by
 ## tools/bench_godot.py (scripts/bench), which copies this directory into a throw-away project;
 ## the method is in docs/benchmarks.md ("IKChain vs Godot's built-in IK").
@@ -26,7 +26,6 @@ const SUCCESS_FRACTION := 1e-3
 const MIN_ANGLE := 0.2
 const MAX_ANGLE := 1.0
 
-var _args := {}
 var _errors := PackedFloat64Array()  # [frame * chains + chain] = tip distance, NaN = no update
 var _first_last := PackedFloat64Array()  # frame 0: error after the frame's last modifier pass
 var _updates := PackedInt32Array()   # skeleton_updated count per chain in the current frame
@@ -36,32 +35,15 @@ var _reasons := {}  # IKChain first-frame get_last_result().reason -> count
 var _iterations := [[], []]  # IKChain get_last_result().iterations: [first frame, tracking frames]
 
 
-func _initialize() -> void:
-	for a in OS.get_cmdline_user_args():
-		var kv: PackedStringArray = a.trim_prefix("--").split("=", true, 1)
-		_args[kv[0]] = kv[1] if kv.size() > 1 else "1"
-	_main()
-
-
-func _main() -> void:
-	await process_frame
-	var out: Dictionary
-	match _args.get("mode", ""):
+func _run(mode: String) -> Variant:
+	match mode:
 		"accuracy":
-			out = await _accuracy()
+			return await _accuracy()
 		"walltime":
-			out = await _walltime()
+			return await _walltime()
 		"cost":
-			out = await _cost()
-		_:
-			push_error("bench.gd: --mode must be accuracy, walltime or cost")
-			quit(2)
-			return
-	var f := FileAccess.open(_args["out"], FileAccess.WRITE)
-	f.store_string(JSON.stringify(out, " "))
-	f.close()
-	print("[GBENCH] DONE")
-	quit()
+			return await _cost()
+	return null
 
 
 # ------------------------------------------------------------------ systems
@@ -467,29 +449,10 @@ static func _mean(values: Array) -> float:
 	return total / max(1, values.size())
 
 
-## CPU time of the calling thread so far, in microseconds (Linux).
-static func _cpu_usec() -> float:
-	var f := FileAccess.open("/proc/thread-self/schedstat", FileAccess.READ)
-	if f == null:
-		return NAN
-	return float(f.get_line().get_slice(" ", 0)) / 1000.0
-
-
 # ------------------------------------------------------------------ instruction counts
 
 func root_node() -> Node:
 	return root
-
-
-var _markers: Array = []
-var _dir: DirAccess
-
-
-## One callgrind dump boundary: the dump that this call triggers holds everything since the
-## previous marker, so `label` names the phase that just ended.
-func marker(label: String) -> void:
-	_markers.append(label)
-	_dir.create_link("/nonexistent-gbench-marker", _args["marker_dir"].path_join("m%d" % _markers.size()))
 
 
 func _cost() -> Dictionary:
@@ -497,11 +460,7 @@ func _cost() -> Dictionary:
 	var frames := int(_args.get("frames", "10"))
 	var lengths: Array = Array(str(_args.get("joints", "10")).split(",")).map(func(s): return int(s))
 	var systems: PackedStringArray = str(_args.get("systems", "IKChain,Godot,floor")).split(",")
-	_dir = DirAccess.open(_args["marker_dir"])
-	print("[GBENCH] READY")
-	while not FileAccess.file_exists(_args["ack"]):
-		OS.delay_msec(20)
-	marker("setup")
+	wait_for_instrumentation()
 	var phases := []
 	for n in lengths:
 		var seqs := sequences(n, chains, TRACK_FRAMES, 8000 + n)

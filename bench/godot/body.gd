@@ -1,4 +1,4 @@
-extends SceneTree
+extends "res://bench/common.gd"
 ## The full body in Godot: IKBody (setup_humanoid()) on a humanoid built from
 ## SkeletonProfileHumanoid's reference pose, targets on hips, hands, feet and head moving smoothly,
 ## next to a stack of IKChain nodes and Godot's FABRIK3D on the same skeleton and targets. Run by
@@ -33,38 +33,20 @@ const POP_M := 0.05
 ## 1). Such frame pairs are not scored for pops; the replay reports how many there were.
 const CUT_M := 0.25
 
-var _args := {}
 var _rigs: Array = []
 
 
-func _initialize() -> void:
-	for a in OS.get_cmdline_user_args():
-		var kv: PackedStringArray = a.trim_prefix("--").split("=", true, 1)
-		_args[kv[0]] = kv[1] if kv.size() > 1 else "1"
-	_main()
-
-
-func _main() -> void:
-	await process_frame
-	var out: Dictionary
-	match _args.get("mode", ""):
+func _run(mode: String) -> Variant:
+	match mode:
 		"cost":
-			out = await _cost()
+			return await _cost()
 		"walltime":
-			out = await _walltime()
+			return await _walltime()
 		"stability":
-			out = await _stability()
+			return await _stability()
 		"replay":
-			out = await _replay()
-		_:
-			push_error("body.gd: --mode must be cost, walltime or stability")
-			quit(2)
-			return
-	var f := FileAccess.open(_args["out"], FileAccess.WRITE)
-	f.store_string(JSON.stringify(out, " "))
-	f.close()
-	print("[GBENCH] DONE")
-	quit()
+			return await _replay()
+	return null
 
 
 # ------------------------------------------------------------------ the character
@@ -193,24 +175,11 @@ static func systems_list(arg: String) -> PackedStringArray:
 
 # ------------------------------------------------------------------ cost (callgrind)
 
-var _markers: Array = []
-var _dir: DirAccess
-
-
-func marker(label: String) -> void:
-	_markers.append(label)
-	_dir.create_link("/nonexistent-gbench-marker", _args["marker_dir"].path_join("m%d" % _markers.size()))
-
-
 func _cost() -> Dictionary:
 	var characters := int(_args.get("characters", "10"))
 	var frames := int(_args.get("frames", "10"))
 	var systems := systems_list(_args.get("systems", "IKBody,IKChain_stack,FABRIK3D_default,FABRIK3D_converge"))
-	_dir = DirAccess.open(_args["marker_dir"])
-	print("[GBENCH] READY")
-	while not FileAccess.file_exists(_args["ack"]):
-		OS.delay_msec(20)
-	marker("setup")
+	wait_for_instrumentation()
 	var phases := []
 	for system in systems:
 		var scene := build(system, characters)
@@ -244,13 +213,6 @@ func _cost() -> Dictionary:
 
 
 # ------------------------------------------------------------------ wall time
-
-static func _cpu_usec() -> float:
-	var f := FileAccess.open("/proc/thread-self/schedstat", FileAccess.READ)
-	if f == null:
-		return NAN
-	return float(f.get_line().get_slice(" ", 0)) / 1000.0
-
 
 static func _median(values: Array) -> float:
 	var v := values.duplicate()
@@ -517,7 +479,7 @@ func _replay() -> Dictionary:
 		eff_bones.append(skel.find_bone(e))
 	var state := {"pts": null, "seen": 0}
 	var results := {"success": 0, "scored": 0, "missing": 0, "flips": 0, "bent": 0, "pops": 0, "pairs": 0, "cuts": 0,
-			"worst": 0.0, "worst_frame": -1, "pos_err": [], "rot_err": [], "iterations": []}
+			"worst": 0.0, "worst_frame": -1, "pop_list": [], "pos_err": [], "rot_err": [], "iterations": []}
 	var prev_normal := [Vector3.ZERO, Vector3.ZERO, Vector3.ZERO, Vector3.ZERO]
 	var prev_pts = null
 	var hash := HashingContext.new()
@@ -604,16 +566,23 @@ func _replay() -> Dictionary:
 			var r0: Array = recorded[f - 1]
 			var r1: Array = recorded[f]
 			var excess := 0.0
+			var excess_bone := -1
 			for b in _solved:
 				var rec_move := Vector3(r1[3 * b], r1[3 * b + 1], r1[3 * b + 2]).distance_to(
 						Vector3(r0[3 * b], r0[3 * b + 1], r0[3 * b + 2]))
-				excess = maxf(excess, pts[b].distance_to(prev_pts[b]) - rec_move)
+				var bone_excess := pts[b].distance_to(prev_pts[b]) - rec_move
+				if bone_excess > excess:
+					excess = bone_excess
+					excess_bone = b
 			results["pairs"] += 1
 			if excess > results["worst"]:
 				results["worst"] = excess
 				results["worst_frame"] = f
 			if excess >= POP_M:
 				results["pops"] += 1
+				# Which bone popped on which frame, to find the cause (the first 50).
+				if results["pop_list"].size() < 50:
+					results["pop_list"].append({"frame": f, "bone": skel.get_bone_name(excess_bone), "excess_m": excess})
 		prev_pts = pts
 	var digest := hash.finish().hex_encode()
 	rig.queue_free()
@@ -635,7 +604,7 @@ func _replay() -> Dictionary:
 			"pop_frames": results["pops"], "frame_pairs": results["pairs"], "recording_cuts": results["cuts"],
 			"pop_share": float(results["pops"]) / maxi(1, results["pairs"]),
 			"worst_excess_move_m": results["worst"], "worst_excess_frame": results["worst_frame"],
-			"sha256_solved_poses": digest}
+			"pops": results["pop_list"], "sha256_solved_poses": digest}
 	print("[GBENCH] replay %s %s: success %.2f%%, flips %d, pops %d / %d (%d cuts in the recording skipped; worst %.4f m at frame %d), median it %d, sha %s" % [
 			rec["clip"], rec["system"], 100.0 * rec["success_rate_1mm_1deg"], rec["knee_elbow_flips"], rec["pop_frames"],
 			rec["frame_pairs"], rec["recording_cuts"], rec["worst_excess_move_m"], rec["worst_excess_frame"], rec["median_iterations"], digest.substr(0, 16)])

@@ -2,12 +2,12 @@
 // forward-kinematics pass and benchmark case runs in the core; this file only shapes arguments
 // and results for TypeScript.
 import createIKChain from './wasm/ikchain_wasm.mjs';
-import type { IKChainModule, RawWebChain, RawWebTree } from './wasm/ikchain_wasm.mjs';
+import type { IKChainModule, RawSolveResult, RawWebChain, RawWebObject, RawWebTree } from './wasm/ikchain_wasm.mjs';
 
 export type Vec3 = readonly [number, number, number];
 export type Quat = readonly [number, number, number, number]; // x, y, z, w
 
-// Codes as in src/core/options.hpp (SolverKind).
+// Codes as in ikchain/options.hpp (SolverKind).
 export enum SolverKind {
   TwoBone = 0,
   CCD = 1,
@@ -27,7 +27,7 @@ export const SOLVERS: readonly { kind: SolverKind; id: string; label: string }[]
 ];
 
 export type TerminationReason = 'converged' | 'max_iterations' | 'stalled' | 'unreachable' | 'invalid_input';
-// Codes as in src/core/result.hpp (TerminationReason).
+// Codes as in ikchain/result.hpp (TerminationReason).
 export const REASONS: readonly TerminationReason[] = [
   'converged', 'max_iterations', 'stalled', 'unreachable', 'invalid_input',
 ];
@@ -87,16 +87,25 @@ export type Goal =
   | { kind: 'orientation'; quaternion: Quat; effector?: number; weight?: number }
   | { kind: 'aim'; axis: Vec3; direction: Vec3; effector?: number; weight?: number };
 
-export interface Options {
+// The options chains and trees share (src/wasm/web_common.hpp, WebOptions).
+export interface SolveOptions {
   maxIterations?: number;
   positionTolerance?: number; // m
   orientationTolerance?: number; // rad
   warmStart?: boolean; // start from the current pose (true) or the rest pose
-  maxStepAngle?: number; // rad per iteration and joint, 0 = no cap
   timeBudgetUsec?: number; // µs of wall clock per solve, restarts included; 0 = none
   // The core's safety cap on a solve's wall-clock time (µs, 0 = none; the core's default 50 ms): a
   // net, not a budget. Tests that must not depend on the machine's load turn it off.
   timeCapUsec?: number;
+}
+
+const SOLVE_OPTION_DEFAULTS: Required<SolveOptions> = {
+  maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, timeBudgetUsec: 0,
+  timeCapUsec: 50_000,
+};
+
+export interface Options extends SolveOptions {
+  maxStepAngle?: number; // rad per iteration and joint, 0 = no cap
   // Restarts from seeded random in-limit poses while the goals are unmet and not provably out of
   // reach (off by default: a restart may jump to another branch between frames); the best pose of
   // all runs is kept. The same seed gives the same restarts, so the same result.
@@ -122,58 +131,63 @@ function check(message: string, what: string): void {
 
 // The core validates every option's range and names a bad one in the solve's result; an integer
 // option must first survive the crossing into C++, where embind would silently truncate or wrap it.
-const INTEGER_OPTIONS = {
-  maxIterations: [-(2 ** 31), 2 ** 31 - 1], // int
-  maxRestarts: [-(2 ** 31), 2 ** 31 - 1], // int
-  restartSeed: [0, 2 ** 32 - 1], // unsigned
-} as const;
+const INT = [-(2 ** 31), 2 ** 31 - 1] as const;
+type IntegerRanges = Readonly<Record<string, readonly [number, number]>>;
 
-function checkIntegerOptions(options: Options): void {
-  for (const [name, [min, max]] of Object.entries(INTEGER_OPTIONS)) {
-    const v = options[name as keyof typeof INTEGER_OPTIONS];
-    if (v !== undefined && !(Number.isInteger(v) && v >= min && v <= max))
+function checkIntegerOptions(options: object, ranges: IntegerRanges): void {
+  for (const [name, [min, max]] of Object.entries(ranges)) {
+    const v = (options as Record<string, unknown>)[name];
+    if (v !== undefined && !(Number.isInteger(v) && (v as number) >= min && (v as number) <= max))
       throw new IKError(`setOptions: ${name} must be an integer in ${min}..${max}, got ${v}`);
   }
 }
 
-export class Chain {
-  private readonly raw: RawWebChain;
-  private opts: Required<Options> = {
-    maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, maxStepAngle: 0,
-    timeBudgetUsec: 0, timeCapUsec: 50_000, maxRestarts: 0, restartSeed: 1,
-  };
+// The raw objects' add*Goal take the same numbers; a tree's take its level after them (`extra`).
+interface GoalAdder<E extends number[]> {
+  addPositionGoal(x: number, y: number, z: number, effector: number, weight: number, ...extra: E): string;
+  addOrientationGoal(qx: number, qy: number, qz: number, qw: number, effector: number, weight: number,
+                     ...extra: E): string;
+  addAimGoal(ax: number, ay: number, az: number, dx: number, dy: number, dz: number, effector: number,
+             weight: number, ...extra: E): string;
+}
 
-  // Use IKCore.createChain / createBenchChain.
-  constructor(raw: RawWebChain) {
-    this.raw = raw;
-    this.applyOptions();
+function addGoal<E extends number[]>(raw: GoalAdder<E>, g: Goal, effector: number, ...extra: E): string {
+  const weight = g.weight ?? 1;
+  if (g.kind === 'position') return raw.addPositionGoal(g.target[0], g.target[1], g.target[2], effector, weight, ...extra);
+  if (g.kind === 'orientation') {
+    const q = g.quaternion;
+    return raw.addOrientationGoal(q[0], q[1], q[2], q[3], effector, weight, ...extra);
   }
+  return raw.addAimGoal(g.axis[0], g.axis[1], g.axis[2], g.direction[0], g.direction[1], g.direction[2], effector,
+                        weight, ...extra);
+}
+
+function summaryOf(r: RawSolveResult): SolveResult {
+  return {
+    reason: r.reason as TerminationReason, usable: r.usable, iterations: r.iterations,
+    initialError: r.initialError, finalError: r.finalError, finalPositionError: r.finalPositionError,
+    finalOrientationError: r.finalOrientationError, elapsedUs: r.elapsedUs, budgetExhausted: r.budgetExhausted,
+    restarts: r.restarts, escapes: r.escapes, message: r.message,
+  };
+}
+
+// The raw object when `message` (its build's) is empty; else it is freed and IKError names `what`.
+function built<R extends RawWebObject>(raw: R, message: string, what: string): R {
+  if (message !== '') {
+    raw.delete();
+    throw new IKError(`${what}: ${message}`);
+  }
+  return raw;
+}
+
+// What Chain and Tree share over their raw objects (src/wasm/web_common.hpp on the C++ side).
+abstract class CoreObject<R extends RawWebObject> {
+  protected readonly raw: R;
+
+  constructor(raw: R) { this.raw = raw; }
 
   get jointCount(): number { return this.raw.jointCount(); }
   get dofCount(): number { return this.raw.dofCount(); }
-  get totalLength(): number { return this.raw.totalLength(); }
-  get options(): Readonly<Required<Options>> { return this.opts; }
-
-  // Replaces every goal. Throws IKError naming the goal when one is refused.
-  setGoals(goals: readonly Goal[]): void {
-    this.raw.clearGoals();
-    goals.forEach((g, i) => {
-      const effector = g.effector ?? 0;
-      const weight = g.weight ?? 1;
-      let message: string;
-      if (g.kind === 'position') {
-        message = this.raw.addPositionGoal(g.target[0], g.target[1], g.target[2], effector, weight);
-      } else if (g.kind === 'orientation') {
-        const q = g.quaternion;
-        message = this.raw.addOrientationGoal(q[0], q[1], q[2], q[3], effector, weight);
-      } else {
-        message = this.raw.addAimGoal(g.axis[0], g.axis[1], g.axis[2], g.direction[0], g.direction[1],
-                                      g.direction[2], effector, weight);
-      }
-      check(message, `goal ${i}`);
-    });
-  }
-
   get goalCount(): number { return this.raw.goalCount(); }
 
   // Per-frame updates that allocate nothing in the core. Throw when goal `index` is of another kind.
@@ -190,22 +204,75 @@ export class Chain {
       throw new IKError(`setAimDirection: goal ${index} is not an aim goal`);
   }
 
+  protected applySolveOptions(o: Required<SolveOptions>): void {
+    this.raw.setMaxIterations(o.maxIterations);
+    this.raw.setTolerances(o.positionTolerance, o.orientationTolerance);
+    this.raw.setWarmStart(o.warmStart);
+    this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
+    this.raw.setTimeCapUsec(o.timeCapUsec);
+  }
+
+  // A solve without building a result object (timing loops, per frame); returns the reason.
+  solveFast(kind: SolverKind = SolverKind.DLS): TerminationReason {
+    return REASONS[this.raw.solve(kind)] ?? 'invalid_input';
+  }
+  get lastIterations(): number { return this.raw.lastIterations(); }
+  get lastFinalError(): number { return this.raw.lastFinalError(); }
+
+  params(): Float64Array { return this.raw.params(); }
+  setParams(values: ArrayLike<number>): void { check(this.raw.setParams(Array.from(values)), 'setParams'); }
+  resetPose(): void { this.raw.resetPose(); }
+
+  // The joint frames at the start of the raw frames (forward kinematics in the core), base space.
+  protected jointFrames(f: Float64Array): JointFrame[] {
+    const joints: JointFrame[] = [];
+    for (let i = 0, n = this.raw.jointCount(); i < n; ++i) {
+      const o = 7 * i;
+      joints.push({ position: [f[o], f[o + 1], f[o + 2]], quaternion: [f[o + 3], f[o + 4], f[o + 5], f[o + 6]] });
+    }
+    return joints;
+  }
+
+  // Frees the core object (embind objects are not garbage-collected).
+  dispose(): void { this.raw.delete(); }
+}
+
+const CHAIN_INTEGER_OPTIONS: IntegerRanges = {
+  maxIterations: INT, maxRestarts: INT, restartSeed: [0, 2 ** 32 - 1], // int, int, unsigned
+};
+
+export class Chain extends CoreObject<RawWebChain> {
+  private opts: Required<Options> = {
+    ...SOLVE_OPTION_DEFAULTS, maxStepAngle: 0, maxRestarts: 0, restartSeed: 1,
+  };
+
+  // Use IKCore.createChain / createBenchChain.
+  constructor(raw: RawWebChain) {
+    super(raw);
+    this.applyOptions();
+  }
+
+  get totalLength(): number { return this.raw.totalLength(); }
+  get options(): Readonly<Required<Options>> { return this.opts; }
+
+  // Replaces every goal. Throws IKError naming the goal when one is refused.
+  setGoals(goals: readonly Goal[]): void {
+    this.raw.clearGoals();
+    goals.forEach((g, i) => check(addGoal(this.raw, g, g.effector ?? 0), `goal ${i}`));
+  }
+
   // Throws IKError (options unchanged) for an integer option that is not one; every other check is
   // the core's, at the next solve.
   setOptions(options: Options): void {
-    checkIntegerOptions(options);
+    checkIntegerOptions(options, CHAIN_INTEGER_OPTIONS);
     this.opts = { ...this.opts, ...options };
     this.applyOptions();
   }
 
   private applyOptions(): void {
     const o = this.opts;
-    this.raw.setMaxIterations(o.maxIterations);
-    this.raw.setTolerances(o.positionTolerance, o.orientationTolerance);
-    this.raw.setWarmStart(o.warmStart);
+    this.applySolveOptions(o);
     this.raw.setMaxStepAngle(o.maxStepAngle);
-    this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
-    this.raw.setTimeCapUsec(o.timeCapUsec);
     this.raw.setMaxRestarts(o.maxRestarts);
     this.raw.setRestartSeed(o.restartSeed);
   }
@@ -216,53 +283,18 @@ export class Chain {
     return this.result();
   }
 
-  // The same solve without building a result object (timing loops); returns the reason.
-  solveFast(kind: SolverKind): TerminationReason {
-    return REASONS[this.raw.solve(kind)] ?? 'invalid_input';
-  }
-  get lastIterations(): number { return this.raw.lastIterations(); }
-  get lastFinalError(): number { return this.raw.lastFinalError(); }
-
-  result(): SolveResult {
-    const r = this.raw.result();
-    return {
-      reason: r.reason as TerminationReason,
-      usable: r.usable,
-      iterations: r.iterations,
-      initialError: r.initialError,
-      finalError: r.finalError,
-      finalPositionError: r.finalPositionError,
-      finalOrientationError: r.finalOrientationError,
-      elapsedUs: r.elapsedUs,
-      budgetExhausted: r.budgetExhausted,
-      restarts: r.restarts,
-      escapes: r.escapes,
-      message: r.message,
-    };
-  }
-
-  params(): Float64Array { return this.raw.params(); }
-  setParams(values: ArrayLike<number>): void { check(this.raw.setParams(Array.from(values)), 'setParams'); }
-  resetPose(): void { this.raw.resetPose(); }
+  result(): SolveResult { return summaryOf(this.raw.result()); }
 
   // Joint frames of the current pose (forward kinematics in the core), base space.
   frames(): Frames {
     const f = this.raw.frames();
     const n = this.raw.jointCount();
-    const joints: JointFrame[] = [];
-    for (let i = 0; i < n; ++i) {
-      const o = 7 * i;
-      joints.push({ position: [f[o], f[o + 1], f[o + 2]], quaternion: [f[o + 3], f[o + 4], f[o + 5], f[o + 6]] });
-    }
-    return { joints, tip: [f[7 * n], f[7 * n + 1], f[7 * n + 2]] };
+    return { joints: this.jointFrames(f), tip: [f[7 * n], f[7 * n + 1], f[7 * n + 2]] };
   }
-
-  // Frees the core object (embind objects are not garbage-collected).
-  dispose(): void { this.raw.delete(); }
 }
 
 
-// --- Trees (whole bodies): core/tree.hpp, core/tree_solve.hpp through src/wasm/web_tree.hpp.
+// --- Trees (whole bodies): ikchain/tree.hpp, ikchain/tree_solve.hpp through src/wasm/web_tree.hpp.
 
 // A joint of a tree: `parent` is an earlier joint's index (-1: the base); the offset is from the
 // parent's frame, the rest rotation identity. Ball limits: a cone about `twistAxis` (the bone's
@@ -285,13 +317,7 @@ export interface TreeSpec {
 // A goal on a tree effector at a priority level (1 = highest, up to 4).
 export type TreeGoal = Goal & { effector: number; level: number };
 
-export interface TreeOptions {
-  maxIterations?: number;
-  positionTolerance?: number; // m
-  orientationTolerance?: number; // rad
-  warmStart?: boolean;
-  timeBudgetUsec?: number;
-  timeCapUsec?: number; // as Options.timeCapUsec
+export interface TreeOptions extends SolveOptions {
   // With a posture: once every goal is met, stop after this many more iterations (0 = until it settles).
   postureIterations?: number;
 }
@@ -306,63 +332,29 @@ export interface TreeFrames {
   effectors: [number, number, number][];
 }
 
-const INTEGER_TREE_OPTIONS = ['maxIterations', 'postureIterations'] as const;
+const TREE_INTEGER_OPTIONS: IntegerRanges = { maxIterations: INT, postureIterations: INT };
 
-export class Tree {
-  private readonly raw: RawWebTree;
+export class Tree extends CoreObject<RawWebTree> {
   readonly spec: TreeSpec;
-  private opts: Required<TreeOptions> = {
-    maxIterations: 100, positionTolerance: 1e-5, orientationTolerance: 1e-4, warmStart: true, timeBudgetUsec: 0,
-    timeCapUsec: 50_000, postureIterations: 0,
-  };
+  private opts: Required<TreeOptions> = { ...SOLVE_OPTION_DEFAULTS, postureIterations: 0 };
   private errors = new Float64Array(0);
 
   // Use IKCore.createTree.
   constructor(raw: RawWebTree, spec: TreeSpec) {
-    this.raw = raw;
+    super(raw);
     this.spec = spec;
     this.applyOptions();
   }
 
-  get jointCount(): number { return this.raw.jointCount(); }
-  get dofCount(): number { return this.raw.dofCount(); }
   get effectorCount(): number { return this.raw.effectorCount(); }
   get options(): Readonly<Required<TreeOptions>> { return this.opts; }
-  get goalCount(): number { return this.raw.goalCount(); }
 
   // Replaces every goal. Throws IKError naming the goal when one is refused; the effector and the
   // level are checked by the core at the next solve (reason invalid_input, the message names them).
   setGoals(goals: readonly TreeGoal[]): void {
     this.raw.clearGoals();
-    goals.forEach((g, i) => {
-      const w = g.weight ?? 1;
-      let message: string;
-      if (g.kind === 'position') {
-        message = this.raw.addPositionGoal(g.target[0], g.target[1], g.target[2], g.effector, w, g.level);
-      } else if (g.kind === 'orientation') {
-        const q = g.quaternion;
-        message = this.raw.addOrientationGoal(q[0], q[1], q[2], q[3], g.effector, w, g.level);
-      } else {
-        message = this.raw.addAimGoal(g.axis[0], g.axis[1], g.axis[2], g.direction[0], g.direction[1], g.direction[2],
-                                      g.effector, w, g.level);
-      }
-      check(message, `goal ${i}`);
-    });
+    goals.forEach((g, i) => check(addGoal(this.raw, g, g.effector, g.level), `goal ${i}`));
     this.errors = new Float64Array(goals.length);
-  }
-
-  // Per-frame updates that allocate nothing in the core. Throw when goal `index` is of another kind.
-  setGoalPosition(index: number, p: Vec3): void {
-    if (!this.raw.setGoalPosition(index, p[0], p[1], p[2]))
-      throw new IKError(`setGoalPosition: goal ${index} is not a position goal`);
-  }
-  setGoalOrientation(index: number, q: Quat): void {
-    if (!this.raw.setGoalOrientation(index, q[0], q[1], q[2], q[3]))
-      throw new IKError(`setGoalOrientation: goal ${index} is not an orientation goal`);
-  }
-  setAimDirection(index: number, d: Vec3): void {
-    if (!this.raw.setGoalAimDirection(index, d[0], d[1], d[2]))
-      throw new IKError(`setAimDirection: goal ${index} is not an aim goal`);
   }
 
   // The posture below every level: preferred params (dofCount values) and one stiffness in [0, 1].
@@ -372,36 +364,21 @@ export class Tree {
   clearPosture(): void { this.raw.clearPosture(); }
 
   setOptions(options: TreeOptions): void {
-    for (const name of INTEGER_TREE_OPTIONS) {
-      const v = options[name];
-      if (v !== undefined && !(Number.isInteger(v) && v >= -(2 ** 31) && v <= 2 ** 31 - 1))
-        throw new IKError(`setOptions: ${name} must be an integer, got ${v}`);
-    }
+    checkIntegerOptions(options, TREE_INTEGER_OPTIONS);
     this.opts = { ...this.opts, ...options };
     this.applyOptions();
   }
 
   private applyOptions(): void {
-    const o = this.opts;
-    this.raw.setMaxIterations(o.maxIterations);
-    this.raw.setTolerances(o.positionTolerance, o.orientationTolerance);
-    this.raw.setWarmStart(o.warmStart);
-    this.raw.setTimeBudgetUsec(o.timeBudgetUsec);
-    this.raw.setTimeCapUsec(o.timeCapUsec);
-    this.raw.setPostureIterations(o.postureIterations);
+    this.applySolveOptions(this.opts);
+    this.raw.setPostureIterations(this.opts.postureIterations);
   }
 
   solve(kind: SolverKind = SolverKind.DLS): TreeSolveResult {
     this.raw.solve(kind);
     return this.result();
   }
-  // The same solve without building a result object (per frame); returns the reason.
-  solveFast(kind: SolverKind = SolverKind.DLS): TerminationReason {
-    return REASONS[this.raw.solve(kind)] ?? 'invalid_input';
-  }
-  get lastIterations(): number { return this.raw.lastIterations(); }
   get lastElapsedUs(): number { return this.raw.lastElapsedUs(); }
-  get lastFinalError(): number { return this.raw.lastFinalError(); }
   // The last solve's per-goal errors, in setGoals' order (a view reused between calls).
   goalErrors(): Float64Array {
     this.raw.goalErrorsInto(this.errors);
@@ -410,35 +387,17 @@ export class Tree {
 
   result(): TreeSolveResult {
     const r = this.raw.result();
-    return {
-      reason: r.reason as TerminationReason, usable: r.usable, iterations: r.iterations,
-      initialError: r.initialError, finalError: r.finalError, finalPositionError: r.finalPositionError,
-      finalOrientationError: r.finalOrientationError, elapsedUs: r.elapsedUs, budgetExhausted: r.budgetExhausted,
-      restarts: r.restarts, escapes: r.escapes, message: r.message,
-      goalErrors: Array.from(r.goalErrors), levelMet: [...r.levelMet],
-    };
+    return { ...summaryOf(r), goalErrors: Array.from(r.goalErrors), levelMet: [...r.levelMet] };
   }
-
-  params(): Float64Array { return this.raw.params(); }
-  setParams(values: ArrayLike<number>): void { check(this.raw.setParams(Array.from(values)), 'setParams'); }
-  resetPose(): void { this.raw.resetPose(); }
 
   // Joint frames and effector positions of the current pose (forward kinematics in the core).
   framesArray(): Float64Array { return this.raw.frames(); }
   frames(): TreeFrames {
     const f = this.raw.frames();
-    const n = this.raw.jointCount();
-    const joints: JointFrame[] = [];
-    for (let i = 0; i < n; ++i) {
-      const o = 7 * i;
-      joints.push({ position: [f[o], f[o + 1], f[o + 2]], quaternion: [f[o + 3], f[o + 4], f[o + 5], f[o + 6]] });
-    }
     const effectors: [number, number, number][] = [];
-    for (let e = 0, o = 7 * n; o + 2 < f.length; ++e, o += 3) effectors.push([f[o], f[o + 1], f[o + 2]]);
-    return { joints, effectors };
+    for (let o = 7 * this.raw.jointCount(); o + 2 < f.length; o += 3) effectors.push([f[o], f[o + 1], f[o + 2]]);
+    return { joints: this.jointFrames(f), effectors };
   }
-
-  dispose(): void { this.raw.delete(); }
 }
 
 export interface ConvergenceTrace {
@@ -469,12 +428,7 @@ export class IKCore {
       }
     }
     raw.setTip(tip[0], tip[1], tip[2]);
-    const message = raw.build();
-    if (message !== '') {
-      raw.delete();
-      throw new IKError(`chain: ${message}`);
-    }
-    return new Chain(raw);
+    return new Chain(built(raw, raw.build(), 'chain'));
   }
 
   // A tree from its joints and effectors; throws IKError with the core's message (naming the joint
@@ -495,12 +449,7 @@ export class IKCore {
     }
     for (const e of spec.effectors) raw.addEffector(e.joint, e.offset[0], e.offset[1], e.offset[2]);
     raw.setFloatingRoot(!!spec.floatingRoot, spec.translationMotionCost ?? 1);
-    const message = raw.build();
-    if (message !== '') {
-      raw.delete();
-      throw new IKError(`tree: ${message}`);
-    }
-    return new Tree(raw, spec);
+    return new Tree(built(raw, raw.build(), 'tree'), spec);
   }
 
   createArm(spec: ArmSpec): Chain {
@@ -511,12 +460,7 @@ export class IKCore {
   // The benchmark's chain (bench/core_bench.cpp): n hinges alternating z/y, unit links.
   createBenchChain(joints: number, planar = false): Chain {
     const raw = new this.module.WebChain();
-    const message = raw.buildBenchChain(joints, planar);
-    if (message !== '') {
-      raw.delete();
-      throw new IKError(`bench chain: ${message}`);
-    }
-    return new Chain(raw);
+    return new Chain(built(raw, raw.buildBenchChain(joints, planar), 'bench chain'));
   }
 
   // The benchmark's budgets and seeded reachable targets (the bench seeds an n-joint cell with 1000 + n).

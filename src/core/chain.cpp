@@ -1,11 +1,11 @@
-#include "core/chain.hpp"
+#include "ikchain/chain.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/quat_ops.hpp"
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain {
 

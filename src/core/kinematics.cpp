@@ -1,10 +1,10 @@
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include "core/quat_ops.hpp"
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain {
 

@@ -1,8 +1,8 @@
-#include "core/options.hpp"
+#include "ikchain/options.hpp"
 
 #include <cmath>
 
-#include "core/chain.hpp"
+#include "ikchain/chain.hpp"
 
 namespace ikchain {
 

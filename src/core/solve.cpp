@@ -1,11 +1,11 @@
-#include "core/solve.hpp"
+#include "ikchain/solve.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cmath>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/solvers/geometric_common.hpp"
 #include "core/solvers/solvers.hpp"
 #include "core/solvers/stuck.hpp"

@@ -1,9 +1,9 @@
-#include "core/tree.hpp"
+#include "ikchain/tree.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain {
 

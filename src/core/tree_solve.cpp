@@ -1,12 +1,12 @@
-#include "core/tree_solve.hpp"
+#include "ikchain/tree_solve.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
-#include "core/kinematics.hpp"
-#include "core/so3.hpp"
-#include "core/solve.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/so3.hpp"
+#include "ikchain/solve.hpp"
 #include "core/solvers/tree_solvers.hpp"
 
 namespace ikchain {

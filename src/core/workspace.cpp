@@ -1,6 +1,6 @@
-#include "core/workspace.hpp"
+#include "ikchain/workspace.hpp"
 
-#include "core/chain.hpp"
+#include "ikchain/chain.hpp"
 
 namespace ikchain {
 

@@ -17,8 +17,8 @@
 
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
-#include "core/ikchain.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "ik_modifier.hpp"
 #include "skeleton_tree.hpp"
 
@@ -31,10 +31,6 @@ class IKBody : public IKModifier {
   // The Solver values are IKChain.Solver's (solver_choice.hpp): saved in scenes, never renumbered.
   // Only the solvers whose core solver-table row says `trees` are offered.
   static constexpr int64_t kDefaultMaxIterations = 100;
-  // The share of the distance to the posture (the start pose) one iteration closes in the freedom
-  // the effectors leave (TreeProblem::posture_stiffness): the redundant joints stay near the
-  // start instead of wandering.
-  static constexpr double kPostureStiffness = 0.1;
   // Posture-only iterations a frame takes once its goals are met (TreeProblem::posture_iterations).
   static constexpr int kPostureIterations = 4;
 

@@ -341,7 +341,8 @@ void IKBody::rebuild(const gdx::Skeleton3D& skel) {
     anim_params_ = Eigen::VectorXd::Zero(dofs);
     previous_anim_params_ = Eigen::VectorXd::Constant(dofs, kNaN);
     last_params_ = Eigen::VectorXd::Zero(dofs);
-    posture_stiffness_.assign(size_t(dofs), kPostureStiffness);
+    posture_stiffness_.assign(size_t(dofs), JointSettings().posture_stiffness);
+    mapping_.posture_stiffness(posture_stiffness_.data());
     posture_ = Eigen::VectorXd::Zero(dofs);
     for (Slot& slot : slots_)
       slot.pole_end = slot.pole_end < 0 ? -1 : mapping_.bone_of(slot.skeleton_bone);

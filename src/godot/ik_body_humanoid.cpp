@@ -8,7 +8,7 @@
 #include "binding/classes.hpp"
 #include "binding/log.hpp"
 #include "binding/math.hpp"
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 #include "ik_body_effector.hpp"
 #include "ik_chain_joint.hpp"
 

@@ -21,7 +21,7 @@
 
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
 #include "ik_modifier.hpp"
 #include "skeleton_chain.hpp"
 

@@ -7,7 +7,7 @@
 
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
-#include "core/goal.hpp"
+#include "ikchain/goal.hpp"
 
 namespace ikchain::godot {
 

@@ -59,6 +59,8 @@ void IKChainJoint::register_class(gdx::ClassRecord& record) {
   b.method("get_twist_axis", &IKChainJoint::get_twist_axis);
   b.method("set_motion_cost", &IKChainJoint::set_motion_cost, {"cost"});
   b.method("get_motion_cost", &IKChainJoint::get_motion_cost);
+  b.method("set_posture_stiffness", &IKChainJoint::set_posture_stiffness, {"share"});
+  b.method("get_posture_stiffness", &IKChainJoint::get_posture_stiffness);
 
   b.constant("JointType", "JOINT_BALL", JOINT_BALL);
   b.constant("JointType", "JOINT_HINGE", JOINT_HINGE);
@@ -88,6 +90,8 @@ void IKChainJoint::register_class(gdx::ClassRecord& record) {
   b.group("Body", "");
   b.property({"motion_cost", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0.01,100,0.01,exp"},
              "set_motion_cost", "get_motion_cost");
+  b.property({"posture_stiffness", GDEXTENSION_VARIANT_TYPE_FLOAT, hint::PROPERTY_HINT_RANGE, "0,1,0.01"},
+             "set_posture_stiffness", "get_posture_stiffness");
 }
 
 const IKChainJoint* IKChainJoint::from_object(gdx::ObjectPtr object) {
@@ -152,6 +156,12 @@ void IKChainJoint::set_motion_cost(double cost) {
   const double used = std::isnan(cost) ? settings_.motion_cost : std::clamp(cost, 0.01, 100.0);
   if (used != cost) report_clamped(kClass, "motion_cost", "[0.01, 100]", cost, used);
   settings_.motion_cost = used;
+  changed();
+}
+void IKChainJoint::set_posture_stiffness(double share) {
+  const double used = std::isnan(share) ? settings_.posture_stiffness : std::clamp(share, 0.0, 1.0);
+  if (used != share) report_clamped(kClass, "posture_stiffness", "[0, 1]", share, used);
+  settings_.posture_stiffness = used;
   changed();
 }
 void IKChainJoint::set_twist_axis(const gdx::Vector3& axis) {

@@ -49,6 +49,8 @@ class IKChainJoint {
   gdx::Vector3 get_twist_axis() const { return gdx::from_glm(settings_.twist_axis_in_bone); }
   void set_motion_cost(double cost);
   double get_motion_cost() const { return settings_.motion_cost; }
+  void set_posture_stiffness(double share);
+  double get_posture_stiffness() const { return settings_.posture_stiffness; }
 
   // The settings as the skeleton mapping takes them (the properties are stored there, so the
   // defaults and the mapping exist once).

@@ -1,3 +1,5 @@
+#include <cmath>
+#include <cstdlib>
 #include "ik_modifier.hpp"
 
 #include <algorithm>
@@ -39,8 +41,26 @@ void IKModifier::unregister_names() {
   g_names = nullptr;
 }
 
+namespace {
+// The core's wall-clock safety cap (SolverOptions::time_cap_usec), or what the environment variable
+// IKCHAIN_TIME_CAP_USEC sets (microseconds, 0 = none), read once. Only for measuring: under
+// valgrind the code runs 20-100x slower while the wall clock does not, so the cap would cut solves
+// that take a millisecond natively, and the instruction counts would depend on the machine's load
+// (tools/bench_godot.py sets it to 0 for its callgrind runs).
+double time_cap_usec() {
+  static const double cap = [] {
+    const char* text = std::getenv("IKCHAIN_TIME_CAP_USEC");
+    char* end = nullptr;
+    const double v = text ? std::strtod(text, &end) : -1.0;
+    return text && end != text && *end == '\0' && v >= 0.0 && std::isfinite(v) ? v : kDefaultTimeCapUsec;
+  }();
+  return cap;
+}
+}  // namespace
+
 IKModifier::IKModifier(gdx::ObjectPtr owner, const Traits& traits)
     : owner_(owner), traits_(traits), max_iterations_(traits.default_max_iterations) {
+  options_.time_cap_usec = time_cap_usec();
   options_.max_iterations = int(max_iterations_);
   options_.position_tolerance = tolerance_;
   options_.orientation_tolerance = orientation_tolerance_;

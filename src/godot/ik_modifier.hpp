@@ -13,7 +13,7 @@
 
 #include "binding/builtins.hpp"
 #include "binding/class_db.hpp"
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
 #include "solver_choice.hpp"
 
 namespace ikchain::godot {

@@ -10,7 +10,7 @@
 
 #include "binding/builtins.hpp"
 #include "binding/math.hpp"
-#include "core/result.hpp"
+#include "ikchain/result.hpp"
 
 namespace ikchain::godot {
 

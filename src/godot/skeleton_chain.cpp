@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain::godot {
 

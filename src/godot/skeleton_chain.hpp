@@ -35,12 +35,12 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/chain.hpp"
-#include "core/goal.hpp"
-#include "core/kinematics.hpp"
-#include "core/message.hpp"
-#include "core/span.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/chain.hpp"
+#include "ikchain/goal.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/message.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/workspace.hpp"
 
 namespace ikchain::godot {
 
@@ -79,6 +79,11 @@ struct JointSettings {
   // How reluctantly a tree solve moves this joint relative to others (TreeJointDesc::motion_cost;
   // > 0, 1 = as any joint). Chains ignore it.
   double motion_cost = 1.0;
+  // IKBody: the share ([0, 1]) of the way back to the incoming pose that one posture step takes for
+  // this joint, in the freedom the effectors leave (TreeProblem::posture_stiffness). 1 holds the
+  // joint's pose firmly (a torso that should not drift and swing back), 0 lets it rest wherever the
+  // effectors left it. Chains ignore it.
+  double posture_stiffness = 0.1;
 };
 
 struct ChainBoneDesc {

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/kinematics.hpp"
-#include "core/so3.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain::godot {
 
@@ -122,6 +122,9 @@ Message SkeletonTree::build_tree() {
     if (!(b.joint.motion_cost > 0.0) || !std::isfinite(b.joint.motion_cost))
       return Message::format("joint '%s': motion_cost (%g) must be finite and > 0; fix it in the bone's IKChainJoint",
                              name, b.joint.motion_cost);
+    if (!(b.joint.posture_stiffness >= 0.0 && b.joint.posture_stiffness <= 1.0))
+      return Message::format("joint '%s': posture_stiffness (%g) must be within [0, 1]; fix it in the bone's IKChainJoint",
+                             name, b.joint.posture_stiffness);
     const glm::dvec3 parent_scale = i == 0 ? glm::dvec3(1.0) : scale_of[size_t(b.parent)];
     scale_of[size_t(i)] = parent_scale * b.pose.scale;
     if (non_uniform_bone_ < 0 && !is_uniform(b.pose.scale)) non_uniform_bone_ = i;
@@ -271,6 +274,17 @@ bool SkeletonTree::swivel_toward_pole(int end, const glm::dvec3& pole_in_tree, d
   p[2] = r.z;
   if (tree_.has_limits(upper)) project_joint_params(JointType::kBall, tree_.limits(upper), p);
   return true;
+}
+
+void SkeletonTree::posture_stiffness(double* per_dof) const {
+  if (!valid_) return;
+  const int n = bone_count();
+  for (int i = 0; i < n; ++i) {
+    // Bone 0's params start at 0: a floating root's translation comes before its rotation.
+    const int begin = i == 0 ? 0 : tree_.dof_offset(i);
+    const int end = i + 1 < n ? tree_.dof_offset(i + 1) : tree_.dof_count();
+    for (int d = begin; d < end; ++d) per_dof[d] = desc_.bones[size_t(i)].joint.posture_stiffness;
+  }
 }
 
 bool SkeletonTree::spread_look(Span<const int> bones, Span<const double> shares, const glm::dvec3& aim_axis,

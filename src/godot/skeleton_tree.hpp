@@ -1,5 +1,5 @@
 // Skeleton <-> tree mapping for IKBody: the bones under a root bone that support some effector ->
-// a core Tree (src/core/tree.hpp), and back (params -> bone pose rotations and, with a floating
+// a core Tree (ikchain/tree.hpp), and back (params -> bone pose rotations and, with a floating
 // root, the root bone's position). Engine-free: it depends only on the core, GLM and the chain
 // mapping's per-joint conversions (skeleton_chain.hpp), so it is unit-tested without Godot
 // (tests/godot_unit/skeleton_tree_test.cpp).
@@ -30,10 +30,10 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/message.hpp"
-#include "core/span.hpp"
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/message.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "skeleton_chain.hpp"
 
 namespace ikchain::godot {
@@ -110,6 +110,11 @@ class SkeletonTree {
   // a limb that cannot take a pole, a straight limb (no bend plane to turn), or a pole on the line.
   // `ws` is scratch for the forward kinematics (sized for the tree). Allocates nothing.
   bool swivel_toward_pole(int end, const glm::dvec3& pole_in_tree, double* params, TreeWorkspace& ws) const;
+
+  // Per DOF (tree().dof_count() entries): its bone's JointSettings::posture_stiffness, the
+  // TreeProblem::posture_stiffness of a body whose joints carry their own (a floating root's
+  // translation takes the root bone's). Allocates nothing.
+  void posture_stiffness(double* per_dof) const;
 
   // ---- look-at spread ----
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <string>
 
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
 
 namespace ikchain::godot {
 

@@ -11,7 +11,7 @@
 #include <random>
 #include <vector>
 
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
 
 namespace ikchain {
 namespace bench_cases {

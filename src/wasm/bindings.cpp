@@ -1,4 +1,5 @@
-// embind: the flat API (web_chain.hpp) as the JS module's `WebChain` class and free functions.
+// embind: the flat APIs (web_chain.hpp, web_tree.hpp) as the JS module's `WebChain` and `WebTree`
+// classes and free functions.
 // Arrays cross as Float64Array copies; results as plain objects.
 #include <emscripten/bind.h>
 #include <emscripten/val.h>
@@ -19,16 +20,22 @@ val float64_copy(const double* data, size_t count) {
   return val(emscripten::typed_memory_view(count, data)).call<val>("slice");
 }
 
-val params_of(const WebChain& c) { return float64_copy(c.params().data(), c.params().size()); }
+// What both classes read and take alike (templates over WebChain and WebTree).
+template <class W>
+val params_of(const W& w) {
+  return float64_copy(w.params().data(), w.params().size());
+}
 
-val frames_of(WebChain& c) {
-  const std::vector<double>& f = c.frames();
+template <class W>
+val frames_of(W& w) {
+  const std::vector<double>& f = w.frames();
   return float64_copy(f.data(), f.size());
 }
 
-std::string set_params_from(WebChain& c, const val& values) {
+template <class W>
+std::string set_params_from(W& w, const val& values) {
   const std::vector<double> v = emscripten::convertJSArrayToNumberVector<double>(values);
-  return c.set_params(v.data(), static_cast<int>(v.size()));
+  return w.set_params(v.data(), static_cast<int>(v.size()));
 }
 
 val summary_of(const ikchain::SolveResult& r) {
@@ -50,24 +57,23 @@ val summary_of(const ikchain::SolveResult& r) {
   return out;
 }
 
+// A chain's result is its summary; a tree's result holds one.
+const ikchain::SolveResult& summary(const WebChain& c) { return c.last_result(); }
+const ikchain::SolveResult& summary(const WebTree& t) { return t.last_result().summary; }
+
 val result_of(const WebChain& c) { return summary_of(c.last_result()); }
 
 // Cheap per-frame reads without building an object.
-int last_iterations(const WebChain& c) { return c.last_result().iterations; }
-double last_final_error(const WebChain& c) { return c.last_result().final_error; }
+template <class W>
+int last_iterations(const W& w) {
+  return summary(w).iterations;
+}
+template <class W>
+double last_final_error(const W& w) {
+  return summary(w).final_error;
+}
 
 // --- WebTree
-val tree_params_of(const WebTree& t) { return float64_copy(t.params().data(), t.params().size()); }
-
-val tree_frames_of(WebTree& t) {
-  const std::vector<double>& f = t.frames();
-  return float64_copy(f.data(), f.size());
-}
-
-std::string tree_set_params_from(WebTree& t, const val& values) {
-  const std::vector<double> v = emscripten::convertJSArrayToNumberVector<double>(values);
-  return t.set_params(v.data(), static_cast<int>(v.size()));
-}
 
 std::string tree_set_posture_from(WebTree& t, const val& values, double stiffness) {
   const std::vector<double> v = emscripten::convertJSArrayToNumberVector<double>(values);
@@ -91,9 +97,7 @@ void tree_goal_errors_into(const WebTree& t, val out) {
   const int n = std::min(r.goal_count, out["length"].as<int>());
   for (int i = 0; i < n; ++i) out.set(i, r.goal_error[i]);
 }
-int tree_last_iterations(const WebTree& t) { return t.last_result().summary.iterations; }
-double tree_last_elapsed_us(const WebTree& t) { return t.last_result().summary.elapsed_us; }
-double tree_last_final_error(const WebTree& t) { return t.last_result().summary.final_error; }
+double tree_last_elapsed_us(const WebTree& t) { return summary(t).elapsed_us; }
 
 val bench_targets_js(int joints, int count, unsigned seed) {
   const std::vector<double> t = ikchain::web::bench_targets(joints, count, seed);
@@ -118,82 +122,71 @@ val precision_run_js(int solver_kind, bool planar) {
   return out;
 }
 
+// The methods both classes have, under the same JS names.
+template <class W>
+const emscripten::class_<W>& bind_common(const emscripten::class_<W>& c) {
+  // embind registers a method on the class its member pointer names: the bases' members are
+  // bound as members of W.
+  using Options = ikchain::web::WebOptions;
+  using Goals = ikchain::web::WebGoalUpdates<W>;
+  return c.function("build", &W::build)
+      .function("jointCount", &W::joint_count)
+      .function("dofCount", &W::dof_count)
+      .function("clearGoals", &W::clear_goals)
+      .function("goalCount", &W::goal_count)
+      .function("setGoalPosition", static_cast<bool (W::*)(int, double, double, double)>(&Goals::set_goal_position))
+      .function("setGoalOrientation",
+                static_cast<bool (W::*)(int, double, double, double, double)>(&Goals::set_goal_orientation))
+      .function("setGoalAimDirection",
+                static_cast<bool (W::*)(int, double, double, double)>(&Goals::set_goal_aim_direction))
+      .function("setMaxIterations", static_cast<void (W::*)(int)>(&Options::set_max_iterations))
+      .function("setTolerances", static_cast<void (W::*)(double, double)>(&Options::set_tolerances))
+      .function("setWarmStart", static_cast<void (W::*)(bool)>(&Options::set_warm_start))
+      .function("setTimeBudgetUsec", static_cast<void (W::*)(double)>(&Options::set_time_budget_usec))
+      .function("setTimeCapUsec", static_cast<void (W::*)(double)>(&Options::set_time_cap_usec))
+      .function("solve", &W::solve)
+      .function("resetPose", &W::reset_pose)
+      .function("lastIterations", &last_iterations<W>)
+      .function("lastFinalError", &last_final_error<W>)
+      .function("params", &params_of<W>)
+      .function("setParams", &set_params_from<W>)
+      .function("frames", &frames_of<W>);
+}
+
 }  // namespace
 
 EMSCRIPTEN_BINDINGS(ikchain_web) {
   using namespace emscripten;
-  class_<WebChain>("WebChain")
-      .constructor<>()
+  bind_common(class_<WebChain>("WebChain").constructor<>())
       .function("clearJoints", &WebChain::clear_joints)
       .function("addHinge", &WebChain::add_hinge)
       .function("addBall", &WebChain::add_ball)
       .function("setTip", &WebChain::set_tip)
-      .function("build", &WebChain::build)
       .function("buildBenchChain", &WebChain::build_bench_chain)
-      .function("jointCount", &WebChain::joint_count)
-      .function("dofCount", &WebChain::dof_count)
       .function("totalLength", &WebChain::total_length)
-      .function("clearGoals", &WebChain::clear_goals)
-      .function("goalCount", &WebChain::goal_count)
       .function("addPositionGoal", &WebChain::add_position_goal)
       .function("addOrientationGoal", &WebChain::add_orientation_goal)
       .function("addAimGoal", &WebChain::add_aim_goal)
-      .function("setGoalPosition", &WebChain::set_goal_position)
-      .function("setGoalOrientation", &WebChain::set_goal_orientation)
-      .function("setGoalAimDirection", &WebChain::set_goal_aim_direction)
-      .function("setMaxIterations", &WebChain::set_max_iterations)
-      .function("setTolerances", &WebChain::set_tolerances)
-      .function("setWarmStart", &WebChain::set_warm_start)
       .function("setMaxStepAngle", &WebChain::set_max_step_angle)
-      .function("setTimeBudgetUsec", &WebChain::set_time_budget_usec)
-      .function("setTimeCapUsec", &WebChain::set_time_cap_usec)
       .function("setMaxRestarts", &WebChain::set_max_restarts)
       .function("setRestartSeed", &WebChain::set_restart_seed)
-      .function("solve", &WebChain::solve)
-      .function("resetPose", &WebChain::reset_pose)
-      .function("result", &result_of)
-      .function("lastIterations", &last_iterations)
-      .function("lastFinalError", &last_final_error)
-      .function("params", &params_of)
-      .function("setParams", &set_params_from)
-      .function("frames", &frames_of);
-  class_<WebTree>("WebTree")
-      .constructor<>()
+      .function("result", &result_of);
+  bind_common(class_<WebTree>("WebTree").constructor<>())
       .function("clear", &WebTree::clear)
       .function("addBall", &WebTree::add_ball)
       .function("addHinge", &WebTree::add_hinge)
       .function("addEffector", &WebTree::add_effector)
       .function("setFloatingRoot", &WebTree::set_floating_root)
-      .function("build", &WebTree::build)
-      .function("jointCount", &WebTree::joint_count)
-      .function("dofCount", &WebTree::dof_count)
       .function("effectorCount", &WebTree::effector_count)
-      .function("clearGoals", &WebTree::clear_goals)
-      .function("goalCount", &WebTree::goal_count)
       .function("addPositionGoal", &WebTree::add_position_goal)
       .function("addOrientationGoal", &WebTree::add_orientation_goal)
       .function("addAimGoal", &WebTree::add_aim_goal)
-      .function("setGoalPosition", &WebTree::set_goal_position)
-      .function("setGoalOrientation", &WebTree::set_goal_orientation)
-      .function("setGoalAimDirection", &WebTree::set_goal_aim_direction)
       .function("setPosture", &tree_set_posture_from)
       .function("clearPosture", &WebTree::clear_posture)
       .function("setPostureIterations", &WebTree::set_posture_iterations)
-      .function("setMaxIterations", &WebTree::set_max_iterations)
-      .function("setTolerances", &WebTree::set_tolerances)
-      .function("setWarmStart", &WebTree::set_warm_start)
-      .function("setTimeBudgetUsec", &WebTree::set_time_budget_usec)
-      .function("setTimeCapUsec", &WebTree::set_time_cap_usec)
-      .function("solve", &WebTree::solve)
-      .function("resetPose", &WebTree::reset_pose)
       .function("result", &tree_result_of)
       .function("goalErrorsInto", &tree_goal_errors_into)
-      .function("lastIterations", &tree_last_iterations)
-      .function("lastElapsedUs", &tree_last_elapsed_us)
-      .function("lastFinalError", &tree_last_final_error)
-      .function("params", &tree_params_of)
-      .function("setParams", &tree_set_params_from)
-      .function("frames", &tree_frames_of);
+      .function("lastElapsedUs", &tree_last_elapsed_us);
   function("benchMaxIterations", &ikchain::web::bench_max_iterations);
   function("benchTargets", &bench_targets_js);
   function("convergenceTrace", &convergence_trace_js);

@@ -1,15 +1,9 @@
 #include "wasm/web_chain.hpp"
 
-#include <cmath>
-
 #include "wasm/bench_cases.hpp"
 
 namespace ikchain {
 namespace web {
-
-namespace {
-bool finite(double v) { return std::isfinite(v); }
-}  // namespace
 
 void WebChain::clear_joints() { builder_.clear(); }
 
@@ -19,11 +13,7 @@ void WebChain::add_hinge(double ox, double oy, double oz, double ax, double ay, 
   j.type = JointType::kHinge;
   j.offset_translation = glm::dvec3(ox, oy, oz);
   j.hinge_axis = glm::dvec3(ax, ay, az);
-  j.limits.has_hinge_limit = limited;
-  if (limited) {
-    j.limits.hinge_min = min_angle;
-    j.limits.hinge_max = max_angle;
-  }
+  set_hinge_limits(j.limits, limited, min_angle, max_angle);
   builder_.add_joint(j);
 }
 
@@ -32,13 +22,7 @@ void WebChain::add_ball(double ox, double oy, double oz, bool limited, double co
   JointDesc j;
   j.type = JointType::kBall;
   j.offset_translation = glm::dvec3(ox, oy, oz);
-  j.limits.has_cone_limit = limited;
-  j.limits.has_twist_limit = limited;
-  if (limited) {
-    j.limits.cone_angle = cone_angle;
-    j.limits.twist_min = twist_min;
-    j.limits.twist_max = twist_max;
-  }
+  set_ball_limits(j.limits, limited, cone_angle, twist_min, twist_max);
   builder_.add_joint(j);
 }
 
@@ -89,35 +73,12 @@ std::string WebChain::add_position_goal(double x, double y, double z, int effect
 
 std::string WebChain::add_orientation_goal(double qx, double qy, double qz, double qw, int effector,
                                            double weight) {
-  return add_goal(Goal::orientation(glm::dquat(qw, qx, qy, qz), effector, weight));
+  return add_goal(orientation_goal(qx, qy, qz, qw, effector, weight));
 }
 
 std::string WebChain::add_aim_goal(double axis_x, double axis_y, double axis_z, double dir_x, double dir_y,
                                    double dir_z, int effector, double weight) {
-  return add_goal(Goal::aim(glm::dvec3(axis_x, axis_y, axis_z), glm::dvec3(dir_x, dir_y, dir_z), effector, weight));
-}
-
-Goal* WebChain::goal_of_kind(int index, GoalKind kind) {
-  if (index < 0 || index >= goal_count() || goals_[index].kind != kind) return nullptr;
-  return &goals_[index];
-}
-
-bool WebChain::set_goal_position(int index, double x, double y, double z) {
-  Goal* g = goal_of_kind(index, GoalKind::kPosition);
-  if (g) g->target_position = glm::dvec3(x, y, z);
-  return g != nullptr;
-}
-
-bool WebChain::set_goal_orientation(int index, double qx, double qy, double qz, double qw) {
-  Goal* g = goal_of_kind(index, GoalKind::kOrientation);
-  if (g) g->target_orientation = glm::dquat(qw, qx, qy, qz);
-  return g != nullptr;
-}
-
-bool WebChain::set_goal_aim_direction(int index, double x, double y, double z) {
-  Goal* g = goal_of_kind(index, GoalKind::kAim);
-  if (g) g->aim_direction = glm::dvec3(x, y, z);
-  return g != nullptr;
+  return add_goal(aim_goal(axis_x, axis_y, axis_z, dir_x, dir_y, dir_z, effector, weight));
 }
 
 int WebChain::solve(int solver_kind) {
@@ -130,11 +91,8 @@ int WebChain::solve(int solver_kind) {
 void WebChain::reset_pose() { params_.setZero(); }
 
 std::string WebChain::set_params(const double* values, int count) {
-  if (count != chain_.dof_count())
-    return "params: expected " + std::to_string(chain_.dof_count()) + " values (one per DOF), got " +
-           std::to_string(count);
-  for (int i = 0; i < count; ++i)
-    if (!finite(values[i])) return "params: value " + std::to_string(i) + " is not finite";
+  std::string error = check_dof_values("params", values, count, chain_.dof_count());
+  if (!error.empty()) return error;
   for (int i = 0; i < count; ++i) params_[i] = values[i];
   return "";
 }
@@ -145,16 +103,9 @@ const std::vector<double>& WebChain::frames() {
     return frames_;
   }
   forward_kinematics(chain_, params_.data(), fk_workspace_);
-  const int n = chain_.joint_count();
-  for (int i = 0; i < n; ++i) {
-    const glm::dvec3& o = fk_workspace_.joint_origins[i];
-    const glm::dquat& q = fk_workspace_.joint_orientations[i];
-    double* f = frames_.data() + 7 * i;
-    f[0] = o.x, f[1] = o.y, f[2] = o.z;
-    f[3] = q.x, f[4] = q.y, f[5] = q.z, f[6] = q.w;
-  }
-  double* t = frames_.data() + 7 * n;
-  t[0] = fk_workspace_.tip.x, t[1] = fk_workspace_.tip.y, t[2] = fk_workspace_.tip.z;
+  double* tip = write_joint_frames(fk_workspace_.joint_origins.data(), fk_workspace_.joint_orientations.data(),
+                                   chain_.joint_count(), frames_.data());
+  write_point(fk_workspace_.tip, tip);
   return frames_;
 }
 

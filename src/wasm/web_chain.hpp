@@ -6,16 +6,17 @@
 #include <string>
 #include <vector>
 
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
+#include "wasm/web_common.hpp"
 
 namespace ikchain {
 namespace web {
 
 constexpr int kMaxGoals = 4;
 
-class WebChain {
+class WebChain : public WebOptions, public WebGoalUpdates<WebChain> {
  public:
-  // --- describing a chain (joint i's offset is from joint i-1's frame; see core/chain.hpp)
+  // --- describing a chain (joint i's offset is from joint i-1's frame; see ikchain/chain.hpp)
   void clear_joints();
   void add_hinge(double ox, double oy, double oz, double ax, double ay, double az, bool limited,
                  double min_angle, double max_angle);
@@ -38,28 +39,16 @@ class WebChain {
   std::string add_orientation_goal(double qx, double qy, double qz, double qw, int effector, double weight);
   std::string add_aim_goal(double axis_x, double axis_y, double axis_z, double dir_x, double dir_y,
                            double dir_z, int effector, double weight);
-  // Per-frame updates of an existing goal: false when `index` is not a goal of that kind.
-  bool set_goal_position(int index, double x, double y, double z);
-  bool set_goal_orientation(int index, double qx, double qy, double qz, double qw);
-  bool set_goal_aim_direction(int index, double x, double y, double z);
+  // Per-frame updates of an existing goal: WebGoalUpdates (web_common.hpp).
+  Goal* goal_at(int index) { return index >= 0 && index < goal_count() ? &goals_[index] : nullptr; }
 
-  // --- options (validated by the solve, which names a bad field)
-  void set_max_iterations(int n) { options_.max_iterations = n; }
-  void set_tolerances(double position, double orientation) {
-    options_.position_tolerance = position;
-    options_.orientation_tolerance = orientation;
-  }
-  void set_warm_start(bool on) { options_.warm_start = on; }
+  // --- options beyond the shared ones (WebOptions, web_common.hpp)
   void set_max_step_angle(double radians) { options_.max_step_angle = radians; }
-  void set_time_budget_usec(double usec) { options_.time_budget_usec = usec; }
-  // The core's wall-clock safety cap (SolverOptions::time_cap_usec, 0 = none).
-  void set_time_cap_usec(double usec) { options_.time_cap_usec = usec; }
   void set_max_restarts(int n) { options_.max_restarts = n; }
   void set_restart_seed(unsigned seed) { options_.restart_seed = seed; }
-  const SolverOptions& options() const { return options_; }
 
   // --- solving; the result stays readable until the next solve
-  // Returns the termination reason's code (core/result.hpp).
+  // Returns the termination reason's code (ikchain/result.hpp).
   int solve(int solver_kind);
   const SolveResult& last_result() const { return result_; }
   void reset_pose();
@@ -73,12 +62,10 @@ class WebChain {
 
  private:
   std::string add_goal(const Goal& goal);
-  Goal* goal_of_kind(int index, GoalKind kind);
 
   ChainBuilder builder_;
   Chain chain_;
   std::vector<Goal> goals_;
-  SolverOptions options_;
   Workspace workspace_;
   Workspace fk_workspace_;
   Eigen::VectorXd params_;

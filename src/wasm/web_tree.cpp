@@ -1,13 +1,7 @@
 #include "wasm/web_tree.hpp"
 
-#include <cmath>
-
 namespace ikchain {
 namespace web {
-
-namespace {
-bool finite(double v) { return std::isfinite(v); }
-}  // namespace
 
 void WebTree::clear() { builder_.clear(); }
 
@@ -19,13 +13,7 @@ int WebTree::add_ball(int parent, double ox, double oy, double oz, bool limited,
   j.offset_in_parent = glm::dvec3(ox, oy, oz);
   j.motion_cost = motion_cost;
   j.limits.twist_axis = glm::dvec3(tx, ty, tz);
-  j.limits.has_cone_limit = limited;
-  j.limits.has_twist_limit = limited;
-  if (limited) {
-    j.limits.cone_angle = cone_angle;
-    j.limits.twist_min = twist_min;
-    j.limits.twist_max = twist_max;
-  }
+  set_ball_limits(j.limits, limited, cone_angle, twist_min, twist_max);
   return builder_.add_joint(j);
 }
 
@@ -37,11 +25,7 @@ int WebTree::add_hinge(int parent, double ox, double oy, double oz, double ax, d
   j.offset_in_parent = glm::dvec3(ox, oy, oz);
   j.axis = glm::dvec3(ax, ay, az);
   j.motion_cost = motion_cost;
-  j.limits.has_hinge_limit = limited;
-  if (limited) {
-    j.limits.hinge_min = min_angle;
-    j.limits.hinge_max = max_angle;
-  }
+  set_hinge_limits(j.limits, limited, min_angle, max_angle);
   return builder_.add_joint(j);
 }
 
@@ -83,44 +67,17 @@ std::string WebTree::add_position_goal(double x, double y, double z, int effecto
 
 std::string WebTree::add_orientation_goal(double qx, double qy, double qz, double qw, int effector, double weight,
                                           int level) {
-  return add_goal(Goal::orientation(glm::dquat(qw, qx, qy, qz), effector, weight), level);
+  return add_goal(orientation_goal(qx, qy, qz, qw, effector, weight), level);
 }
 
 std::string WebTree::add_aim_goal(double axis_x, double axis_y, double axis_z, double dir_x, double dir_y,
                                   double dir_z, int effector, double weight, int level) {
-  return add_goal(Goal::aim(glm::dvec3(axis_x, axis_y, axis_z), glm::dvec3(dir_x, dir_y, dir_z), effector, weight),
-                  level);
-}
-
-Goal* WebTree::goal_of_kind(int index, GoalKind kind) {
-  if (index < 0 || index >= goal_count_ || goals_[index].goal.kind != kind) return nullptr;
-  return &goals_[index].goal;
-}
-
-bool WebTree::set_goal_position(int index, double x, double y, double z) {
-  Goal* g = goal_of_kind(index, GoalKind::kPosition);
-  if (g) g->target_position = glm::dvec3(x, y, z);
-  return g != nullptr;
-}
-
-bool WebTree::set_goal_orientation(int index, double qx, double qy, double qz, double qw) {
-  Goal* g = goal_of_kind(index, GoalKind::kOrientation);
-  if (g) g->target_orientation = glm::dquat(qw, qx, qy, qz);
-  return g != nullptr;
-}
-
-bool WebTree::set_goal_aim_direction(int index, double x, double y, double z) {
-  Goal* g = goal_of_kind(index, GoalKind::kAim);
-  if (g) g->aim_direction = glm::dvec3(x, y, z);
-  return g != nullptr;
+  return add_goal(aim_goal(axis_x, axis_y, axis_z, dir_x, dir_y, dir_z, effector, weight), level);
 }
 
 std::string WebTree::set_posture(const double* values, int count, double stiffness) {
-  if (count != tree_.dof_count())
-    return "posture: expected " + std::to_string(tree_.dof_count()) + " values (one per DOF), got " +
-           std::to_string(count);
-  for (int i = 0; i < count; ++i)
-    if (!finite(values[i])) return "posture: value " + std::to_string(i) + " is not finite";
+  std::string error = check_dof_values("posture", values, count, tree_.dof_count());
+  if (!error.empty()) return error;
   if (!(stiffness >= 0.0 && stiffness <= 1.0))
     return "posture: stiffness must be in [0, 1], got " + std::to_string(stiffness);
   for (int i = 0; i < count; ++i) {
@@ -145,11 +102,8 @@ int WebTree::solve(int solver_kind) {
 }
 
 std::string WebTree::set_params(const double* values, int count) {
-  if (count != tree_.dof_count())
-    return "params: expected " + std::to_string(tree_.dof_count()) + " values (one per DOF), got " +
-           std::to_string(count);
-  for (int i = 0; i < count; ++i)
-    if (!finite(values[i])) return "params: value " + std::to_string(i) + " is not finite";
+  std::string error = check_dof_values("params", values, count, tree_.dof_count());
+  if (!error.empty()) return error;
   for (int i = 0; i < count; ++i) params_[i] = values[i];
   return "";
 }
@@ -160,19 +114,10 @@ const std::vector<double>& WebTree::frames() {
     return frames_;
   }
   tree_forward_kinematics(tree_, params_.data(), workspace_);
-  const int n = tree_.joint_count();
-  for (int i = 0; i < n; ++i) {
-    const glm::dvec3& o = workspace_.joint_origins[i];
-    const glm::dquat& q = workspace_.joint_orientations[i];
-    double* f = frames_.data() + 7 * i;
-    f[0] = o.x, f[1] = o.y, f[2] = o.z;
-    f[3] = q.x, f[4] = q.y, f[5] = q.z, f[6] = q.w;
-  }
-  for (int e = 0; e < tree_.effector_count(); ++e) {
-    const glm::dvec3 p = tree_effector_position(tree_, workspace_, e);
-    double* f = frames_.data() + 7 * n + 3 * e;
-    f[0] = p.x, f[1] = p.y, f[2] = p.z;
-  }
+  double* effectors = write_joint_frames(workspace_.joint_origins.data(), workspace_.joint_orientations.data(),
+                                         tree_.joint_count(), frames_.data());
+  for (int e = 0; e < tree_.effector_count(); ++e)
+    write_point(tree_effector_position(tree_, workspace_, e), effectors + 3 * e);
   return frames_;
 }
 

@@ -1,4 +1,4 @@
-// The flat API for whole bodies (core/tree.hpp, core/tree_solve.hpp): one object owning a tree, its
+// The flat API for whole bodies (ikchain/tree.hpp, ikchain/tree_solve.hpp): one object owning a tree, its
 // goals at priority levels, a posture, options, workspace and pose, with plain-number arguments as
 // WebChain has (web_chain.hpp). No embind types here. Errors come back as messages naming the
 // field; a failed call leaves the previous state in place. After build(), updating goals, options
@@ -7,19 +7,20 @@
 #include <string>
 #include <vector>
 
-#include "core/ikchain.hpp"
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
+#include "wasm/web_common.hpp"
 
 namespace ikchain {
 namespace web {
 
 constexpr int kMaxWebTreeGoals = 16;
 
-class WebTree {
+class WebTree : public WebOptions, public WebGoalUpdates<WebTree> {
  public:
   // --- describing a tree (joint i's offset is from its parent's frame, rest rotation identity;
-  // parents precede children; see core/tree.hpp). Each returns the new joint's index.
+  // parents precede children; see ikchain/tree.hpp). Each returns the new joint's index.
   void clear();
   // Ball joint; when `limited`, a cone about `twist axis` (the bone's direction in joint space) and
   // a twist range about it (rad).
@@ -48,10 +49,8 @@ class WebTree {
                                    int level);
   std::string add_aim_goal(double axis_x, double axis_y, double axis_z, double dir_x, double dir_y, double dir_z,
                            int effector, double weight, int level);
-  // Per-frame updates of an existing goal: false when `index` is not a goal of that kind.
-  bool set_goal_position(int index, double x, double y, double z);
-  bool set_goal_orientation(int index, double qx, double qy, double qz, double qw);
-  bool set_goal_aim_direction(int index, double x, double y, double z);
+  // Per-frame updates of an existing goal: WebGoalUpdates (web_common.hpp).
+  Goal* goal_at(int index) { return index >= 0 && index < goal_count_ ? &goals_[index].goal : nullptr; }
 
   // --- posture (below every level): preferred params and one stiffness for every DOF (a share in
   // [0, 1] closed per iteration); "" or a message naming the problem. clear_posture() drops it.
@@ -59,18 +58,10 @@ class WebTree {
   void clear_posture() { posture_on_ = false; }
   void set_posture_iterations(int n) { posture_iterations_ = n; }
 
-  // --- options (validated by the solve, which names a bad field)
-  void set_max_iterations(int n) { options_.max_iterations = n; }
-  void set_tolerances(double position, double orientation) {
-    options_.position_tolerance = position;
-    options_.orientation_tolerance = orientation;
-  }
-  void set_warm_start(bool on) { options_.warm_start = on; }
-  void set_time_budget_usec(double usec) { options_.time_budget_usec = usec; }
-  void set_time_cap_usec(double usec) { options_.time_cap_usec = usec; }  // 0 = none
+  // --- options: WebOptions (web_common.hpp)
 
   // --- solving; the result stays readable until the next solve. Returns the termination reason's
-  // code (core/result.hpp).
+  // code (ikchain/result.hpp).
   int solve(int solver_kind);
   const TreeSolveResult& last_result() const { return result_; }
   void reset_pose() { params_.setZero(); }
@@ -83,7 +74,6 @@ class WebTree {
 
  private:
   std::string add_goal(const Goal& goal, int level);
-  Goal* goal_of_kind(int index, GoalKind kind);
 
   TreeBuilder builder_;
   Tree tree_;
@@ -92,7 +82,6 @@ class WebTree {
   std::vector<double> posture_, posture_stiffness_;
   bool posture_on_ = false;
   int posture_iterations_ = 0;
-  SolverOptions options_;
   TreeWorkspace workspace_;
   Eigen::VectorXd params_;
   TreeSolveResult result_;

@@ -10,7 +10,7 @@
 
 #include "body_model.hpp"
 #include "bvh.hpp"
-#include "core/kinematics.hpp"
+#include "ikchain/kinematics.hpp"
 
 namespace {
 

@@ -5,8 +5,8 @@
 #include <random>
 #include <vector>
 
-#include "core/kinematics.hpp"
-#include "core/so3.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/so3.hpp"
 #include "solver_test_util.hpp"
 
 namespace ikchain {

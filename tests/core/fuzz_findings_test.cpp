@@ -6,8 +6,8 @@
 #include <utility>
 #include <vector>
 
-#include "core/kinematics.hpp"
-#include "core/solve.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/solve.hpp"
 #include "core/solvers/solvers.hpp"
 #include "test_util.hpp"
 

@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "core/solve.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/tree_solve.hpp"
 #include "humanoid.hpp"
 #include "solver_test_util.hpp"
 #include "telescope_arm.hpp"
@@ -124,45 +124,45 @@ const Golden kChainGolden[] = {
 };
 const Golden kTreeGolden[] = {
     {"fixed_hands_feet_pos/ccd", 1, 60, 0, 0, 0.0012364263377061609},
-    {"fixed_hands_feet_pos/dls", 0, 9, 0, 0, 5.7740747966979881e-06},
+    {"fixed_hands_feet_pos/dls", 0, 9, 0, 0, 5.7740747970856658e-06},
     {"fixed_hands_feet_pos/bfgs", 0, 11, 0, 0, 2.5888338952931331e-09},
     {"fixed_hands_feet_pos/fabrik", 1, 60, 0, 0, 0.047439302257434472},
     {"fixed_five_6d/ccd", 1, 60, 0, 0, 0.060711237147392828},
-    {"fixed_five_6d/dls", 0, 11, 0, 0, 2.0479672150481316e-07},
+    {"fixed_five_6d/dls", 0, 11, 0, 0, 2.0479672136076544e-07},
     {"fixed_five_6d/bfgs", 0, 9, 0, 0, 9.9129664259194385e-06},
     {"fixed_five_6d/fabrik", 1, 60, 1, 0, 0.62144997812807967},
     {"fixed_levels/ccd", 1, 60, 0, 0, 0.94908882842592635},
-    {"fixed_levels/dls", 1, 60, 0, 0, 1.2624961688040266},
+    {"fixed_levels/dls", 1, 60, 0, 0, 1.2624961689321144},
     {"fixed_levels/bfgs", 1, 60, 1, 0, 0.83801145632903962},
     {"fixed_levels/fabrik", 1, 60, 0, 0, 1.6388672465918184},
-    {"fixed_posture/dls", 1, 60, 0, 0, 0.89322043876420876},
+    {"fixed_posture/dls", 1, 60, 0, 0, 0.89322043749544078},
     {"floating_hands_feet_pos/ccd", 0, 51, 0, 0, 1.1535768936192165e-05},
-    {"floating_hands_feet_pos/dls", 0, 10, 0, 0, 1.4835183284838041e-06},
+    {"floating_hands_feet_pos/dls", 0, 10, 0, 0, 1.4835183287006941e-06},
     {"floating_hands_feet_pos/bfgs", 0, 8, 0, 0, 6.302134175767168e-11},
     {"floating_hands_feet_pos/fabrik", 1, 60, 0, 0, 0.050393122371858744},
     {"floating_five_6d/ccd", 1, 60, 0, 0, 0.044209335111888758},
-    {"floating_five_6d/dls", 0, 6, 0, 0, 3.9737738433594935e-06},
+    {"floating_five_6d/dls", 0, 6, 0, 0, 3.9737738440716001e-06},
     {"floating_five_6d/bfgs", 0, 6, 0, 0, 1.5552847698817548e-06},
     {"floating_five_6d/fabrik", 1, 60, 0, 0, 0.40514438207198533},
     {"floating_levels/ccd", 1, 60, 0, 0, 0.79847943341558159},
-    {"floating_levels/dls", 1, 60, 1, 0, 0.71611625976289239},
+    {"floating_levels/dls", 1, 60, 1, 0, 0.7161162597628925},
     {"floating_levels/bfgs", 1, 60, 0, 0, 0.75071755430289178},
     {"floating_levels/fabrik", 1, 60, 1, 0, 1.011271016965344},
-    {"floating_posture/dls", 1, 60, 0, 0, 0.71656195940176781},
+    {"floating_posture/dls", 1, 60, 0, 0, 0.71656195940176592},
     {"nolimits_hands_feet_pos/ccd", 1, 60, 0, 0, 0.0052261085141991157},
-    {"nolimits_hands_feet_pos/dls", 0, 9, 0, 0, 1.8911374765330144e-07},
+    {"nolimits_hands_feet_pos/dls", 0, 9, 0, 0, 1.8911374837656067e-07},
     {"nolimits_hands_feet_pos/bfgs", 0, 11, 0, 0, 3.5263152485668517e-06},
     {"nolimits_hands_feet_pos/fabrik", 0, 47, 0, 0, 1.0052732888228708e-05},
     {"nolimits_five_6d/ccd", 1, 60, 0, 0, 0.091861841282654955},
-    {"nolimits_five_6d/dls", 0, 9, 0, 0, 1.1556825654825741e-05},
+    {"nolimits_five_6d/dls", 0, 9, 0, 0, 1.1556825654487751e-05},
     {"nolimits_five_6d/bfgs", 0, 16, 0, 0, 4.1928364293686795e-07},
     {"nolimits_five_6d/fabrik", 1, 60, 0, 0, 2.1022613103494619e-05},
     {"nolimits_levels/ccd", 1, 60, 0, 0, 1.0927041374107063},
-    {"nolimits_levels/dls", 1, 60, 0, 0, 0.98147446241506175},
+    {"nolimits_levels/dls", 1, 60, 0, 0, 0.98147446241506164},
     {"nolimits_levels/bfgs", 1, 60, 0, 0, 1.0921448494581094},
     {"nolimits_levels/fabrik", 1, 60, 0, 0, 1.0494091056548756},
-    {"nolimits_posture/dls", 1, 60, 0, 0, 0.98100817454756473},
-    {"telescope_tree/dls", 0, 5, 0, 0, 4.7586124867091369e-08},
+    {"nolimits_posture/dls", 1, 60, 0, 0, 0.98100817454756428},
+    {"telescope_tree/dls", 0, 5, 0, 0, 4.7586125067766345e-08},
     {"telescope_tree/bfgs", 0, 5, 0, 0, 5.8421249721980404e-06},
 };
 // clang-format on

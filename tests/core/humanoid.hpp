@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/chain.hpp"
-#include "core/so3.hpp"
+#include "ikchain/chain.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain {
 namespace test {

@@ -11,6 +11,7 @@
 #include "core/math/linalg.hpp"
 #include "core/solvers/stuck.hpp"
 #include "humanoid.hpp"
+#include "joint_desc.hpp"  // bench/
 #include "solver_test_util.hpp"
 #include "telescope_arm.hpp"
 
@@ -559,23 +560,10 @@ TEST(Issue16, OutOfReachBecauseOfTheLimitsStopsAsStalledAndMovesSmoothly) {
 
 
 // ------------------------------------------------------------------------------------ item 15
-// A leg: a ball hip at the base origin, a 0.45 m thigh down (-Y), a knee hinge about +X in
-// [0, 2.6] rad, a 0.42 m shin; R = 0.87 m.
+// A leg: a free ball hip, a 0.45 m thigh, a knee hinge in [0, 2.6] rad, a 0.42 m shin; R = 0.87 m.
 Chain straight_leg() {
-  ChainBuilder b;
-  JointDesc hip;
-  b.add_joint(hip);
-  JointDesc knee;
-  knee.type = JointType::kHinge;
-  knee.hinge_axis = glm::dvec3(1, 0, 0);
-  knee.offset_translation = glm::dvec3(0, -0.45, 0);
-  knee.limits.has_hinge_limit = true;
-  knee.limits.hinge_min = 0.0;
-  knee.limits.hinge_max = 2.6;
-  b.add_joint(knee);
-  b.set_tip_offset(glm::dvec3(0, -0.42, 0));
   Chain c;
-  EXPECT_TRUE(b.build(c).ok());
+  EXPECT_TRUE(bench::straight_leg_builder(0.45, 0.42).build(c).ok());
   return c;
 }
 
@@ -642,16 +630,9 @@ TEST(Issue16, SoftReachStraightensTheKneeWithoutASnap) {
 // local escape led back (7 and 9 of the bench's 2,000 failed). Now the far escape leaves it. Then a
 // seeded sample of 2,000 goals: >= 99.9 % converge with each of the three Newton-like solvers
 // (on 253026a: pinv 1985, DLS 1999, BFGS 1987; now 2000 each).
-struct TorsoArmJoint {
-  double x, y, z;         // origin, in the parent joint's frame (m)
-  double qw, qx, qy, qz;  // origin rotation
-  double ax, ay, az;      // hinge axis in the joint frame
-  double lower, upper;    // rad
-};
-
 Chain icub_torso_arm() {
   const double a = 0.49999816339744835, b = 0.49999999999662686, c = 0.5000018366025516;
-  const std::vector<TorsoArmJoint> joints = {
+  const std::vector<bench::UrdfHinge> joints = {
       {0.0, 0.0, 0.0, 9.381839456086127e-07, 0.7071080798588512, -9.381873917569988e-07, 0.7071054825106139, 0, 1,
        6.12323e-17, -0.383972, 1.46608},                                                    // torso_pitch
       {0.032, 0.0, 0.0, a, b, -c, -b, 0, 1, 6.12323e-17, -0.680678, 0.680678},              // torso_roll
@@ -665,21 +646,8 @@ Chain icub_torso_arm() {
       {-0.015, 0.0, 0.0, a, b, -c, -b, 0, 1, 6.12323e-17, -0.872665, 0.872665},             // l_wrist_prosup
       {0.0, 0.1373, 0.0, a, b, c, b, 0, 1, 6.12323e-17, -1.13446, 0.174533},                // l_wrist_pitch
       {0.0, 0.0, 0.0, 1, 0, 0, 0, 0, 0, 1, -0.436332, 0.436332}};                            // l_wrist_yaw
-  ChainBuilder builder;
-  for (const TorsoArmJoint& j : joints) {
-    JointDesc d;
-    d.type = JointType::kHinge;
-    d.offset_translation = glm::dvec3(j.x, j.y, j.z);
-    d.rest_rotation = glm::dquat(j.qw, j.qx, j.qy, j.qz);
-    d.hinge_axis = glm::dvec3(j.ax, j.ay, j.az);
-    d.limits.has_hinge_limit = true;
-    d.limits.hinge_min = j.lower;
-    d.limits.hinge_max = j.upper;
-    builder.add_joint(d);
-  }
-  builder.set_tip_offset(glm::dvec3(0.0625, 0.0, -0.016));  // l_hand_dh_frame
-  Chain chain;
-  EXPECT_TRUE(builder.build(chain).ok());
+  Chain chain;  // the tip: l_hand_dh_frame
+  EXPECT_TRUE(bench::urdf_hinge_builder(joints, glm::dvec3(0.0625, 0.0, -0.016)).build(chain).ok());
   return chain;
 }
 

@@ -4,7 +4,7 @@
 #include <random>
 #include <vector>
 
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 #include "solver_test_util.hpp"
 
 namespace ikchain {

@@ -1,5 +1,5 @@
-#include "core/kinematics.hpp"
-#include "core/so3.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/so3.hpp"
 
 #include <random>
 

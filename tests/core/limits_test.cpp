@@ -1,5 +1,5 @@
 // Ball joints' cone and twist limits in the limit-aware active set (jacobian::limit_aware_step,
-// BFGS's frozen directions; ball_blocked in kinematics.hpp): the outward normals are the limits'
+// BFGS's frozen directions; ball_blocked in kinematics_internal.hpp): the outward normals are the limits'
 // gradients, a ball resting on its cone or twist boundary slides along it instead of stalling, no
 // returned pose violates a limit, and the solve allocates nothing.
 #include <cmath>

@@ -1,6 +1,6 @@
 // The dispatcher's promises, checked for every solver: each invalid input in turn gives
 // kInvalidInput, an untouched pose and a message naming the field (ozz's JobValidity style).
-#include "core/solve.hpp"
+#include "ikchain/solve.hpp"
 
 #include <cmath>
 #include <limits>
@@ -8,7 +8,7 @@
 #include <string>
 
 #include "alloc_counter.hpp"
-#include "core/kinematics.hpp"
+#include "ikchain/kinematics.hpp"
 #include "test_util.hpp"
 
 namespace ikchain {

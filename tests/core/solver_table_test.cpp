@@ -3,6 +3,7 @@
 // message, a claimed one is accepted.
 #include <string>
 
+#include "joint_desc.hpp"  // bench/
 #include "solver_test_util.hpp"
 
 namespace ikchain {
@@ -10,14 +11,9 @@ namespace {
 
 Chain telescope() {
   ChainBuilder b;
-  JointDesc root, slide;
-  slide.type = JointType::kPrismatic;
-  slide.hinge_axis = glm::dvec3(0, 1, 0);
-  slide.offset_translation = glm::dvec3(0, 1, 0);
-  slide.limits.has_slide_limit = true;
-  slide.limits.slide_min = 0.0;
-  slide.limits.slide_max = 0.5;
-  b.add_joint(root).add_joint(slide).set_tip_offset(glm::dvec3(0, 1, 0));
+  b.add_joint(JointDesc())
+      .add_joint(bench::slide_joint(glm::dvec3(0, 1, 0), glm::dvec3(0, 1, 0), 0.0, 0.5))
+      .set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
   EXPECT_TRUE(b.build(c).ok());
   return c;

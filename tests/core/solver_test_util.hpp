@@ -17,7 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "alloc_counter.hpp"
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/solvers/jacobian_common.hpp"
 #include "core/solvers/solvers.hpp"
 #include "test_util.hpp"

@@ -9,6 +9,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "core/solvers/stuck.hpp"
+#include "joint_desc.hpp"  // bench/
 #include "solver_test_util.hpp"
 
 namespace ikchain {
@@ -344,29 +345,11 @@ TEST(Stuck, EscapesAreBoundedReportedAndDeterministic) {
 // every solve from the middle of the limits with max_iterations 100 and no restart. Each now
 // converges, escaping at least once, within the limits; the tip is checked by a forward kinematics
 // of 4x4 transforms (test::hinge_tool_frame_by_matrices), not the library's.
-struct ArmJoint {
-  double x, y, z;         // origin, in the parent joint's frame (m)
-  double qw, qx, qy, qz;  // origin rotation
-  double ax, ay, az;      // hinge axis in the joint frame
-  double lower, upper;    // rad
-};
+using ArmJoint = bench::UrdfHinge;
 
 Chain arm_chain(const std::vector<ArmJoint>& joints, const glm::dvec3& tool) {
-  ChainBuilder b;
-  for (const ArmJoint& j : joints) {
-    JointDesc d;
-    d.type = JointType::kHinge;
-    d.offset_translation = glm::dvec3(j.x, j.y, j.z);
-    d.rest_rotation = glm::dquat(j.qw, j.qx, j.qy, j.qz);
-    d.hinge_axis = glm::dvec3(j.ax, j.ay, j.az);
-    d.limits.has_hinge_limit = true;
-    d.limits.hinge_min = j.lower;
-    d.limits.hinge_max = j.upper;
-    b.add_joint(d);
-  }
-  b.set_tip_offset(tool);
   Chain c;
-  EXPECT_TRUE(b.build(c).ok());
+  EXPECT_TRUE(bench::urdf_hinge_builder(joints, tool).build(c).ok());
   return c;
 }
 

@@ -4,7 +4,8 @@
 #pragma once
 #include <gtest/gtest.h>
 
-#include "core/chain.hpp"
+#include "ikchain/chain.hpp"
+#include "joint_desc.hpp"  // bench/
 
 namespace ikchain {
 namespace test {
@@ -13,19 +14,8 @@ inline Chain telescope_arm(bool with_wrist = true) {
   ChainBuilder b;
   JointDesc shoulder;
   b.add_joint(shoulder);
-  JointDesc slide;
-  slide.type = JointType::kPrismatic;
-  slide.hinge_axis = glm::dvec3(0, 1, 0);
-  slide.offset_translation = glm::dvec3(0, 0.5, 0);
-  slide.limits.has_slide_limit = true;
-  slide.limits.slide_min = 0.0;
-  slide.limits.slide_max = 0.8;
-  b.add_joint(slide);
-  JointDesc elbow;
-  elbow.type = JointType::kHinge;
-  elbow.hinge_axis = glm::dvec3(1, 0, 0);
-  elbow.offset_translation = glm::dvec3(0, 0.5, 0);
-  b.add_joint(elbow);
+  b.add_joint(bench::slide_joint(glm::dvec3(0, 1, 0), glm::dvec3(0, 0.5, 0), 0.0, 0.8));
+  b.add_joint(bench::hinge_joint(glm::dvec3(1, 0, 0), glm::dvec3(0, 0.5, 0)));  // the elbow
   if (with_wrist) {
     JointDesc wrist;
     wrist.offset_translation = glm::dvec3(0, 0.5, 0);

@@ -8,7 +8,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
 
-#include "core/ikchain.hpp"
+#include "ikchain/ikchain.hpp"
 
 namespace ikchain {
 namespace test {

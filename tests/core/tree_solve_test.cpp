@@ -10,58 +10,23 @@
 #include <string>
 
 #include "alloc_counter.hpp"
-#include "core/solve.hpp"
-#include "core/tree_solve.hpp"
-#include "tree_test_util.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/tree_solve.hpp"
+#include "tree_reach.hpp"
 
 namespace ikchain {
 namespace {
 
+using test::expect_result_is_the_pose;
 using test::Humanoid;
-
 using test::pose_goals_at;
 
-// The errors solve_tree reports are the pose's: measured again from the params it returned.
-void expect_result_is_the_pose(const Tree& tree, const TreeProblem& p, const TreeSolveResult& r,
-                               const Eigen::VectorXd& q) {
-  TreeWorkspace ws(tree, p.goals.size);
-  tree_forward_kinematics(tree, q.data(), ws);
-  for (int g = 0; g < p.goals.size; ++g)
-    EXPECT_NEAR(glm::length(tree_goal_error(tree, ws, p.goals[g].goal)), r.goal_error[g], 1e-12) << "goal " << g;
-  EXPECT_TRUE(q.allFinite());
-  EXPECT_TRUE(within_tree_limits(tree, q.data(), 1e-9));
-}
-
+// 100 random 6-D poses of hands, feet and head with the default options (tree_reach.hpp).
 TEST(TreeSolve, BodyReachesEveryEffectorsPoseAtOnce) {
   for (bool floating : {false, true}) {
-    const Tree t = test::make_humanoid(floating);
-    std::mt19937 rng(21);
-    TreeWorkspace ws(t, 12);
-    SolverOptions o;
-    int converged = 0;
-    const int trials = 100;
-    for (int trial = 0; trial < trials; ++trial) {
-      const Eigen::VectorXd target = test::random_tree_params(t, rng, 1.2, 0.2);
-      const std::vector<TreeGoal> goals =
-          pose_goals_at(t, target, {Humanoid::kLHand, Humanoid::kRHand, Humanoid::kLFoot, Humanoid::kRFoot,
-                                    Humanoid::kHeadEffector}, 1);
-      TreeProblem p;
-      p.goals = goals;
-      Eigen::VectorXd q = Eigen::VectorXd::Zero(t.dof_count());
-      const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
-      ASSERT_TRUE(r.usable()) << r.summary.message.c_str();
-      expect_result_is_the_pose(t, p, r, q);
-      if (r.summary.reason != TerminationReason::kConverged)
-        std::printf("  trial %d: %s after %d iterations, %d escapes, errors %g m %g rad\n", trial,
-                    to_string(r.summary.reason), r.summary.iterations, r.summary.escapes,
-                    r.summary.final_position_error, r.summary.final_orientation_error);
-      if (r.summary.reason == TerminationReason::kConverged) {
-        ++converged;
-        EXPECT_LE(r.summary.final_position_error, o.position_tolerance);
-        EXPECT_LE(r.summary.final_orientation_error, o.orientation_tolerance);
-      }
-    }
-    EXPECT_GE(converged, 95) << (floating ? "floating" : "fixed") << " root";
+    const test::ReachRate r = test::reach_random_poses(SolverKind::kDLS, floating, /*orientation=*/true,
+                                                       SolverOptions(), 100, /*print_misses=*/true);
+    EXPECT_GE(r.converged, 95) << (floating ? "floating" : "fixed") << " root";
   }
 }
 
@@ -330,9 +295,7 @@ TEST(TreeSolve, ACreepAtLevelOneIsSeenWhileALowerLevelSwings) {
     ASSERT_TRUE(r.usable());
     if (r.summary.reason == TerminationReason::kConverged) ++converged;
     else
-      std::printf("  trial %d: %s after %d iterations, %d escapes, errors %g m %g rad\n", trial,
-                  to_string(r.summary.reason), r.summary.iterations, r.summary.escapes,
-                  r.summary.final_position_error, r.summary.final_orientation_error);
+      test::print_miss(trial, r);
   }
   EXPECT_EQ(converged, trials);
 }
@@ -407,18 +370,10 @@ TEST(TreeSolve, LimitsHoldAtEveryLevel) {
 
 TEST(TreeSolve, SolveAllocatesNothing) {
   const Tree t = test::make_humanoid(true);
-  std::mt19937 rng(2);
   TreeWorkspace ws(t, 12);
   SolverOptions o;
-  const Eigen::VectorXd target = test::random_tree_params(t, rng, 1.0, 0.1);
-  std::vector<TreeGoal> goals = pose_goals_at(t, target, {Humanoid::kLFoot, Humanoid::kRFoot}, 1);
-  const std::vector<TreeGoal> hands = pose_goals_at(t, target, {Humanoid::kLHand, Humanoid::kRHand}, 2);
-  goals.insert(goals.end(), hands.begin(), hands.end());
-  goals.push_back({Goal::aim_at({0, 1.6, 3}, {0, 0, 1}, Humanoid::kHeadEffector), 3});
-  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
-  TreeProblem p;
-  p.goals = goals;
-  p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+  const test::LeveledProblem leveled(t);
+  const TreeProblem p = leveled.problem();
   Eigen::VectorXd q = Eigen::VectorXd::Zero(t.dof_count());
   const std::size_t before = test::allocation_count();
   const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);

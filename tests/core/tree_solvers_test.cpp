@@ -9,9 +9,9 @@
 #include <random>
 
 #include "alloc_counter.hpp"
-#include "core/solve.hpp"
-#include "core/tree_solve.hpp"
-#include "tree_test_util.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/tree_solve.hpp"
+#include "tree_reach.hpp"
 
 namespace ikchain {
 namespace {
@@ -47,61 +47,17 @@ struct RateCase {
   double max_median_position_error;  // m, over the 100 poses
 };
 
-void expect_result_is_the_pose(const Tree& tree, const TreeProblem& p, const TreeSolveResult& r,
-                               const Eigen::VectorXd& q) {
-  // FK round trip: the errors reported are those of the params returned, by matrices.
-  TreeWorkspace ws(tree, p.goals.size);
-  tree_forward_kinematics(tree, q.data(), ws);
-  for (int g = 0; g < p.goals.size; ++g) {
-    EXPECT_NEAR(glm::length(tree_goal_error(tree, ws, p.goals[g].goal)), r.goal_error[g], 1e-12) << "goal " << g;
-    if (p.goals[g].goal.kind == GoalKind::kPosition) {
-      const glm::dvec3 by_matrices = test::effector_by_matrices(tree, q, p.goals[g].goal.effector);
-      EXPECT_NEAR(glm::length(by_matrices - p.goals[g].goal.target_position), r.goal_error[g], 1e-9) << "goal " << g;
-    }
-  }
-  EXPECT_TRUE(q.allFinite());
-  EXPECT_TRUE(within_tree_limits(tree, q.data(), 1e-9));
-}
-
-struct Rate {
-  int converged = 0;
-  double median_position_error = 0.0;
-};
-
-Rate rate_of_100(SolverKind kind, bool floating, bool orientation) {
-  const Tree t = test::make_humanoid(floating);
-  std::mt19937 rng(21);
-  TreeWorkspace ws(t, 12);
+// The rate of 100 poses (tree_reach.hpp) with max_iterations 500 and no wall-clock cap (the verdict
+// must not depend on the machine's load); prints the measured numbers.
+test::ReachRate rate_of_100(SolverKind kind, bool floating, bool orientation) {
   SolverOptions o;
   o.max_iterations = 500;
-  o.time_cap_usec = 0.0;  // no wall-clock cap: the verdict must not depend on the machine's load
-  int converged = 0, iterations = 0;
-  std::vector<double> errors;
-  for (int trial = 0; trial < 100; ++trial) {
-    const Eigen::VectorXd target = test::random_tree_params(t, rng, 1.2, 0.2);
-    const std::vector<TreeGoal> goals = pose_goals_at(
-        t, target, {Humanoid::kLHand, Humanoid::kRHand, Humanoid::kLFoot, Humanoid::kRFoot, Humanoid::kHeadEffector}, 1,
-        orientation);
-    TreeProblem p;
-    p.goals = goals;
-    Eigen::VectorXd q = Eigen::VectorXd::Zero(t.dof_count());
-    const TreeSolveResult r = solve_tree(kind, t, p, o, ws, q);
-    EXPECT_TRUE(r.usable()) << r.summary.message.c_str();
-    expect_result_is_the_pose(t, p, r, q);
-    if (r.summary.reason == TerminationReason::kConverged) {
-      ++converged;
-      EXPECT_LE(r.summary.final_position_error, o.position_tolerance);
-      EXPECT_LE(r.summary.final_orientation_error, o.orientation_tolerance);
-    }
-    iterations += r.summary.iterations;
-    errors.push_back(r.summary.final_position_error);
-  }
-  std::sort(errors.begin(), errors.end());
-  const double median = 0.5 * (errors[49] + errors[50]);
+  o.time_cap_usec = 0.0;
+  const test::ReachRate r = test::reach_random_poses(kind, floating, orientation, o, 100);
   std::printf("  %-6s %s root, %s goals: %d/100 converged, median position error %.3g m, %.1f iterations on "
               "average\n", to_string(kind), floating ? "floating" : "fixed", orientation ? "6-D" : "position",
-              converged, median, iterations / 100.0);
-  return {converged, median};
+              r.converged, r.median_position_error, r.iterations / 100.0);
+  return r;
 }
 
 class TreeSolverRates : public ::testing::TestWithParam<RateCase> {};
@@ -109,7 +65,7 @@ class TreeSolverRates : public ::testing::TestWithParam<RateCase> {};
 TEST_P(TreeSolverRates, ReachRandomFiveEffectorPosesFromRest) {
   const RateCase c = GetParam();
   for (bool floating : {false, true}) {
-    const Rate r = rate_of_100(c.kind, floating, c.orientation);
+    const test::ReachRate r = rate_of_100(c.kind, floating, c.orientation);
     EXPECT_GE(r.converged, c.min_converged) << to_string(c.kind) << (floating ? " floating" : " fixed") << " root";
     EXPECT_LE(r.median_position_error, c.max_median_position_error)
         << to_string(c.kind) << (floating ? " floating" : " fixed") << " root";
@@ -161,19 +117,11 @@ TEST(TreeSolvers, LimitsHoldForEverySolver) {
 // One solve per solver with every goal kind, levels and a posture: no allocation.
 TEST(TreeSolvers, SolveAllocatesNothing) {
   const Tree t = test::make_humanoid(true);
-  std::mt19937 rng(2);
   TreeWorkspace ws(t, 12);
   SolverOptions o;
-  const Eigen::VectorXd target = test::random_tree_params(t, rng, 1.0, 0.1);
-  std::vector<TreeGoal> goals = pose_goals_at(t, target, {Humanoid::kLFoot, Humanoid::kRFoot}, 1);
-  const std::vector<TreeGoal> hands = pose_goals_at(t, target, {Humanoid::kLHand, Humanoid::kRHand}, 2);
-  goals.insert(goals.end(), hands.begin(), hands.end());
-  goals.push_back({Goal::aim_at({0, 1.6, 3}, {0, 0, 1}, Humanoid::kHeadEffector), 3});
-  goals.push_back({Goal::aim({0, 1, 0}, {0, 0, 1}, Humanoid::kHipsEffector), 4});
-  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
-  TreeProblem p;
-  p.goals = goals;
-  p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
+  test::LeveledProblem leveled(t);
+  leveled.goals.push_back({Goal::aim({0, 1, 0}, {0, 0, 1}, Humanoid::kHipsEffector), 4});
+  const TreeProblem p = leveled.problem();
   for (SolverKind kind : tree_solvers()) {
     Eigen::VectorXd q = Eigen::VectorXd::Zero(t.dof_count());
     const std::size_t before = test::allocation_count();

@@ -7,10 +7,10 @@
 #include <random>
 #include <string>
 
-#include "core/kinematics.hpp"
-#include "core/solve.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/solve.hpp"
 #include "core/solvers/tree_solvers.hpp"
-#include "core/tree.hpp"
+#include "ikchain/tree.hpp"
 #include "test_util.hpp"
 #include "tree_test_util.hpp"
 

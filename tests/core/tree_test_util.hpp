@@ -8,8 +8,8 @@
 #include <Eigen/Dense>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "core/tree.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/tree.hpp"
+#include "ikchain/tree_solve.hpp"
 
 namespace ikchain {
 namespace test {

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "alloc_counter.hpp"
-#include "core/kinematics.hpp"
-#include "core/so3.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/so3.hpp"
 #include "humanoid.hpp"
 #include "solver_test_util.hpp"
 

@@ -30,8 +30,8 @@
 
 #include <fuzzer/FuzzedDataProvider.h>
 
-#include "core/ikchain.hpp"
-#include "core/kinematics.hpp"
+#include "ikchain/ikchain.hpp"
+#include "ikchain/kinematics.hpp"
 
 using namespace ikchain;
 

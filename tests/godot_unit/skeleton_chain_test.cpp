@@ -17,9 +17,9 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "../core/alloc_counter.hpp"
-#include "core/kinematics.hpp"
-#include "core/solve.hpp"
-#include "core/so3.hpp"
+#include "ikchain/kinematics.hpp"
+#include "ikchain/solve.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain::godot {
 namespace {

@@ -16,8 +16,8 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "../core/alloc_counter.hpp"
-#include "core/so3.hpp"
-#include "core/tree_solve.hpp"
+#include "ikchain/so3.hpp"
+#include "ikchain/tree_solve.hpp"
 
 namespace ikchain::godot {
 namespace {
@@ -315,6 +315,34 @@ TEST(SkeletonTree, JointSettingsBecomeHingesAndConesAndTheWarmStartRespectsThem)
   map.params_from_pose(params.data());
   EXPECT_NEAR(params[size_t(map.tree().dof_offset(knee))], 0.0, 1e-12);
   EXPECT_TRUE(within_tree_limits(map.tree(), params.data(), 1e-9));
+}
+
+// IKBody's posture task reads each joint's posture_stiffness per DOF: a floating root's 6 params
+// take the root bone's, a bone without settings the default 0.1; out of [0, 1] is refused by name.
+TEST(SkeletonTree, PostureStiffnessPerDofFromEachBonesJoint) {
+  Skel s = body();
+  SkeletonTreeDesc d = describe(s, "Hips", {"LeftFoot", "Head"}, true, nullptr, &knee_hinge);
+  for (TreeBoneDesc& b : d.bones) {
+    if (b.name == "Spine") b.joint.posture_stiffness = 1.0;
+    if (b.name == "Hips") b.joint.posture_stiffness = 0.0;
+  }
+  SkeletonTree map;
+  ASSERT_TRUE(map.build(d).empty());
+  std::vector<double> stiffness(size_t(map.tree().dof_count()), -1.0);
+  map.posture_stiffness(stiffness.data());
+  const int spine = map.bone_of(find(s, "Spine")), knee = map.bone_of(find(s, "LeftLowerLeg"));
+  for (int p = 0; p < 6; ++p) EXPECT_EQ(stiffness[size_t(p)], 0.0) << "root param " << p;
+  for (int p = 0; p < 3; ++p) EXPECT_EQ(stiffness[size_t(map.tree().dof_offset(spine) + p)], 1.0);
+  EXPECT_EQ(stiffness[size_t(map.tree().dof_offset(knee))], 0.1);
+  for (double v : stiffness) EXPECT_GE(v, 0.0);  // every DOF written
+  for (TreeBoneDesc& b : d.bones)
+    if (b.name == "Spine") b.joint.posture_stiffness = 1.5;
+  SkeletonTree bad;
+  const Message m = bad.build(d);
+  EXPECT_FALSE(bad.valid());
+  EXPECT_NE(std::string(m.c_str()).find("joint 'Spine': posture_stiffness (1.5) must be within [0, 1]"),
+            std::string::npos)
+      << m.c_str();
 }
 
 TEST(SkeletonTree, BuildErrorsNameTheBoneAndNothingHalfBuiltSurvives) {

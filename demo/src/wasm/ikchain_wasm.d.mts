@@ -17,44 +17,48 @@ export interface RawSolveResult {
   message: string;
 }
 
-export interface RawWebChain {
-  clearJoints(): void;
-  addHinge(ox: number, oy: number, oz: number, ax: number, ay: number, az: number, limited: boolean,
-           min: number, max: number): void;
-  addBall(ox: number, oy: number, oz: number, limited: boolean, cone: number, twistMin: number,
-          twistMax: number): void;
-  setTip(x: number, y: number, z: number): void;
+// What both classes have (bindings.cpp, bind_common).
+export interface RawWebObject {
   build(): string;
-  buildBenchChain(joints: number, planar: boolean): string;
   jointCount(): number;
   dofCount(): number;
-  totalLength(): number;
   clearGoals(): void;
   goalCount(): number;
-  addPositionGoal(x: number, y: number, z: number, effector: number, weight: number): string;
-  addOrientationGoal(qx: number, qy: number, qz: number, qw: number, effector: number, weight: number): string;
-  addAimGoal(ax: number, ay: number, az: number, dx: number, dy: number, dz: number, effector: number,
-             weight: number): string;
   setGoalPosition(index: number, x: number, y: number, z: number): boolean;
   setGoalOrientation(index: number, qx: number, qy: number, qz: number, qw: number): boolean;
   setGoalAimDirection(index: number, x: number, y: number, z: number): boolean;
   setMaxIterations(n: number): void;
   setTolerances(position: number, orientation: number): void;
   setWarmStart(on: boolean): void;
-  setMaxStepAngle(radians: number): void;
   setTimeBudgetUsec(usec: number): void;
   setTimeCapUsec(usec: number): void;
-  setMaxRestarts(n: number): void;
-  setRestartSeed(seed: number): void;
   solve(kind: number): number;
   resetPose(): void;
-  result(): RawSolveResult;
   lastIterations(): number;
   lastFinalError(): number;
   params(): Float64Array;
   setParams(values: ArrayLike<number>): string;
   frames(): Float64Array;
   delete(): void;
+}
+
+export interface RawWebChain extends RawWebObject {
+  clearJoints(): void;
+  addHinge(ox: number, oy: number, oz: number, ax: number, ay: number, az: number, limited: boolean,
+           min: number, max: number): void;
+  addBall(ox: number, oy: number, oz: number, limited: boolean, cone: number, twistMin: number,
+          twistMax: number): void;
+  setTip(x: number, y: number, z: number): void;
+  buildBenchChain(joints: number, planar: boolean): string;
+  totalLength(): number;
+  addPositionGoal(x: number, y: number, z: number, effector: number, weight: number): string;
+  addOrientationGoal(qx: number, qy: number, qz: number, qw: number, effector: number, weight: number): string;
+  addAimGoal(ax: number, ay: number, az: number, dx: number, dy: number, dz: number, effector: number,
+             weight: number): string;
+  setMaxStepAngle(radians: number): void;
+  setMaxRestarts(n: number): void;
+  setRestartSeed(seed: number): void;
+  result(): RawSolveResult;
 }
 
 export interface RawTreeResult extends RawSolveResult {
@@ -62,7 +66,7 @@ export interface RawTreeResult extends RawSolveResult {
   levelMet: boolean[];
 }
 
-export interface RawWebTree {
+export interface RawWebTree extends RawWebObject {
   clear(): void;
   addBall(parent: number, ox: number, oy: number, oz: number, limited: boolean, cone: number, twistMin: number,
           twistMax: number, tx: number, ty: number, tz: number, motionCost: number): number;
@@ -70,39 +74,18 @@ export interface RawWebTree {
            min: number, max: number, motionCost: number): number;
   addEffector(joint: number, ox: number, oy: number, oz: number): number;
   setFloatingRoot(on: boolean, translationMotionCost: number): void;
-  build(): string;
-  jointCount(): number;
-  dofCount(): number;
   effectorCount(): number;
-  clearGoals(): void;
-  goalCount(): number;
   addPositionGoal(x: number, y: number, z: number, effector: number, weight: number, level: number): string;
   addOrientationGoal(qx: number, qy: number, qz: number, qw: number, effector: number, weight: number,
                      level: number): string;
   addAimGoal(ax: number, ay: number, az: number, dx: number, dy: number, dz: number, effector: number,
              weight: number, level: number): string;
-  setGoalPosition(index: number, x: number, y: number, z: number): boolean;
-  setGoalOrientation(index: number, qx: number, qy: number, qz: number, qw: number): boolean;
-  setGoalAimDirection(index: number, x: number, y: number, z: number): boolean;
   setPosture(values: ArrayLike<number>, stiffness: number): string;
   clearPosture(): void;
   setPostureIterations(n: number): void;
-  setMaxIterations(n: number): void;
-  setTolerances(position: number, orientation: number): void;
-  setWarmStart(on: boolean): void;
-  setTimeBudgetUsec(usec: number): void;
-  setTimeCapUsec(usec: number): void;
-  solve(kind: number): number;
-  resetPose(): void;
   result(): RawTreeResult;
   goalErrorsInto(out: Float64Array): void;
-  lastIterations(): number;
   lastElapsedUs(): number;
-  lastFinalError(): number;
-  params(): Float64Array;
-  setParams(values: ArrayLike<number>): string;
-  frames(): Float64Array;
-  delete(): void;
 }
 
 export interface IKChainModule {

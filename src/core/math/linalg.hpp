@@ -11,7 +11,7 @@
 
 #include <Eigen/Dense>
 
-#include "core/deadline.hpp"
+#include "ikchain/deadline.hpp"
 
 namespace ikchain {
 namespace linalg {

@@ -55,7 +55,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/solvers/bfgs_common.hpp"
 #include "core/solvers/solvers.hpp"
 #include "core/solvers/stuck.hpp"

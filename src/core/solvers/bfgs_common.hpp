@@ -12,8 +12,8 @@
 
 #include <Eigen/Dense>
 
-#include "core/deadline.hpp"
-#include "core/options.hpp"
+#include "ikchain/deadline.hpp"
+#include "ikchain/options.hpp"
 
 namespace ikchain {
 namespace bfgs {

@@ -38,7 +38,7 @@
 // iteration budget. The best pose seen is returned.
 #include <cmath>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/solvers/geometric_common.hpp"
 #include "core/solvers/solvers.hpp"
 

@@ -25,7 +25,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/solvers/jacobian_common.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/solvers.hpp"

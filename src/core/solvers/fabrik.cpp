@@ -52,7 +52,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/solvers/geometric_common.hpp"
 #include "core/solvers/solvers.hpp"
 

@@ -12,15 +12,15 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/chain.hpp"
-#include "core/kinematics.hpp"
-#include "core/result.hpp"
-#include "core/goal.hpp"
+#include "ikchain/chain.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/result.hpp"
+#include "ikchain/goal.hpp"
 #include "core/math/linalg.hpp"
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 #include "core/solvers/stuck.hpp"
-#include "core/span.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/workspace.hpp"
 
 namespace ikchain {
 namespace geometric {

@@ -24,10 +24,10 @@
 
 #include <Eigen/Dense>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/math/linalg.hpp"
 #include "core/quat_ops.hpp"
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 #include "core/solvers/solvers.hpp"
 
 namespace ikchain {

@@ -15,14 +15,14 @@
 // else kMaxIterations (budget spent) or kStalled (no further progress). solve() turns a
 // non-converged stop at a stationary best reach into kUnreachable.
 #pragma once
-#include "core/chain.hpp"
-#include "core/goal.hpp"
-#include "core/kinematics.hpp"
-#include "core/message.hpp"
-#include "core/options.hpp"
-#include "core/result.hpp"
-#include "core/span.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/chain.hpp"
+#include "ikchain/goal.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/message.hpp"
+#include "ikchain/options.hpp"
+#include "ikchain/result.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/workspace.hpp"
 
 namespace ikchain {
 

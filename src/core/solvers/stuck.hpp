@@ -40,14 +40,14 @@
 
 #include <Eigen/Dense>
 
-#include "core/chain.hpp"
-#include "core/goal.hpp"
-#include "core/kinematics.hpp"
-#include "core/options.hpp"
-#include "core/so3.hpp"
+#include "ikchain/chain.hpp"
+#include "ikchain/goal.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/options.hpp"
+#include "ikchain/so3.hpp"
 #include "core/solvers/jacobian_common.hpp"
-#include "core/span.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/workspace.hpp"
 
 namespace ikchain {
 namespace stuck {

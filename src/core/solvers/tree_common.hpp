@@ -13,8 +13,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/kinematics.hpp"
-#include "core/so3.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_solvers.hpp"
 

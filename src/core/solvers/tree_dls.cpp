@@ -22,9 +22,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/kinematics.hpp"
+#include "core/kinematics_internal.hpp"
 #include "core/math/linalg.hpp"
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 #include "core/solvers/stuck.hpp"
 #include "core/solvers/tree_common.hpp"
 #include "core/solvers/tree_solvers.hpp"
@@ -62,6 +62,13 @@ double lexicographic_gain(const TreeErrors& after, const TreeErrors& before, dou
 // step). 0.99 and 0.9 cost the body bench the same instructions; 0.99 takes fewer, surer chord
 // steps. Requiring the gain of every level instead cost 5 % more warm (fewer chord steps).
 constexpr double kChordGain = 0.99;
+// A posture step from a pose whose goals are all met, that kept them met, moved the joints by a
+// share (the stiffness) of their distance to the posture: the Jacobian hardly changed, so the next
+// posture step reuses it and the factors too (a chord step: two triangular solves instead of a
+// linearisation, Gram matrix and factorisation) - at most this many in a row, so the null space
+// the posture moves in never lags the pose by more than a few small steps. A chord step the
+// comparison refuses falls back to a fresh linearisation, as every chord step does.
+constexpr int kMaxPostureChords = 3;
 // The shortest share of the posture step tried once every goal is met (each refused step quarters it).
 constexpr double kMinPostureGain = 1.0 / 64.0;
 // The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
@@ -187,8 +194,6 @@ using linalg::cholesky_lower;
 using linalg::lower_solve;
 using linalg::lower_transpose_solve;
 using linalg::subtract_gram_of_columns;
-using Seg = linalg::Seg;
-using ConstSeg = linalg::ConstSeg;
 
 class HierarchicalStep {
  public:
@@ -369,42 +374,41 @@ class HierarchicalStep {
   // level by level y += Jt^T z, z = K^-1 (e_l - Jl y), Jt^T z = Jl^T z - A^T F^-T (W z); then the
   // posture in the null space of every row (when factored for it). False when not finite.
   bool solve(const double* params, const Eigen::VectorXd& residual, double posture_gain) {
-    const auto J = ws_.jacobian.topLeftCorner(rows_, cols_);
     auto F = ws_.gram_factor.topLeftCorner(rows_, rows_);
     const bool posture = factored_posture_ && !problem_.posture.empty() && posture_gain > 0.0;
-    auto y = ws_.dof_vec_a.head(cols_);
-    y.setZero();
+    double* y = ws_.dof_vec_a.data();
+    std::fill(y, y + cols_, 0.0);
     for (int l = 0; l < served_; ++l) {
       const int b = levels_.begin[l], m = levels_.end[l] - b;
-      auto r = ws_.row_vec_a.segment(b, m);
-      r = residual.segment(b, m);
-      r.noalias() -= J.middleRows(b, m) * y;
+      double* r = ws_.row_vec_a.data() + b;
+      rows_times(b, m, y, r);
+      for (int i = 0; i < m; ++i) r[i] = residual[b + i] - r[i];
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
-      lower_solve(K, m, r.data());
-      lower_transpose_solve(K, m, r.data());
-      y.noalias() += J.middleRows(b, m).transpose() * r;
+      lower_solve(K, m, r);
+      lower_transpose_solve(K, m, r);
+      add_rows_transpose(b, m, r, 1.0, y);
       if (b > 0) {
         const auto W = F.block(0, b, b, m);
         auto w = ws_.row_vec_b.head(b);
-        w.noalias() = W * r;
+        w.noalias() = W * ws_.row_vec_a.segment(b, m);
         lower_transpose_solve(cols_of(F), b, w.data());
-        y.noalias() -= J.topRows(b).transpose() * w;
+        add_rows_transpose(0, b, w.data(), -1.0, y);
       }
     }
     if (posture) {
-      auto v = ws_.dof_vec_b.head(cols_);
+      double* v = ws_.dof_vec_b.data();
       for (int c = 0; c < cols_; ++c) {
         const int d = ws_.active_dofs[c];
         v[c] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]) / ws_.dof_scale[c];
       }
       if (rows_ > 0) {
-        auto u = ws_.row_vec_b.head(rows_);
-        u.noalias() = J * v;
-        lower_solve(cols_of(F), rows_, u.data());
-        lower_transpose_solve(cols_of(F), rows_, u.data());
-        v.noalias() -= J.transpose() * u;
+        double* u = ws_.row_vec_b.data();
+        rows_times(0, rows_, v, u);
+        lower_solve(cols_of(F), rows_, u);
+        lower_transpose_solve(cols_of(F), rows_, u);
+        add_rows_transpose(0, rows_, u, -1.0, v);
       }
-      y += v;
+      for (int c = 0; c < cols_; ++c) y[c] += v[c];
     }
     ws_.step.setZero();
     for (int c = 0; c < cols_; ++c) ws_.step[ws_.active_dofs[c]] = ws_.dof_scale[c] * y[c];
@@ -412,6 +416,52 @@ class HierarchicalStep {
       for (int d = 0; d < tree_.dof_count(); ++d)
         if (!is_active(d)) ws_.step[d] = posture_gain * stiffness(d) * (problem_.posture[d] - params[d]);
     return ws_.step.allFinite();
+  }
+
+  // Calls f(first_column, width) for each run of J's columns that goal k's rows (in level order)
+  // can be nonzero in: its effector's support (the rest of the row is zero, see linearize()).
+  template <class F>
+  void for_each_support_run(int k, F&& f) const {
+    const int e = problem_.goals[ws_.goal_order[k]].goal.effector;
+    const int* support = tree_.support_list(e);
+    for (int s = 0; s < tree_.support_count(e); ++s) {
+      const int j = support[s];
+      if (j == 0 && tree_.floating_root()) f(ws_.dof_column[0], 3);
+      const int width = tree_.dof_count_of(j);
+      if (width > 0) f(ws_.dof_column[tree_.dof_offset(j)], width);
+    }
+  }
+  // out[i] = (row first + i of J) . x for the `count` rows from `first` (whole goals), over the
+  // supports only: a foot's rows touch the hips and one leg, a few of the tree's columns.
+  void rows_times(int first, int count, const double* x, double* out) const {
+    const double* J = ws_.jacobian.data();
+    const Eigen::Index ld = ws_.jacobian.outerStride();
+    for (int k = first / 3; k < (first + count) / 3; ++k) {
+      double o0 = 0.0, o1 = 0.0, o2 = 0.0;
+      for_each_support_run(k, [&](int c0, int width) {
+        for (int c = c0; c < c0 + width; ++c) {
+          const double* col = J + c * ld + 3 * k;
+          o0 += col[0] * x[c], o1 += col[1] * x[c], o2 += col[2] * x[c];
+        }
+      });
+      double* o = out + 3 * k - first;
+      o[0] = o0, o[1] = o1, o[2] = o2;
+    }
+  }
+  // y += sign (rows first .. first + count of J)^T x, over the supports only.
+  void add_rows_transpose(int first, int count, const double* x, double sign, double* y) const {
+    const double* J = ws_.jacobian.data();
+    const Eigen::Index ld = ws_.jacobian.outerStride();
+    for (int k = first / 3; k < (first + count) / 3; ++k) {
+      const double* xk = x + 3 * k - first;
+      const double x0 = sign * xk[0], x1 = sign * xk[1], x2 = sign * xk[2];
+      for_each_support_run(k, [&](int c0, int width) {
+        for (int c = c0; c < c0 + width; ++c) {
+          const double* col = J + c * ld + 3 * k;
+          y[c] += col[0] * x0 + col[1] * x1 + col[2] * x2;
+        }
+      });
+    }
   }
 
   // True when the step in ws.step pushes a joint out of a bound it rests on that J still moves
@@ -656,6 +706,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     return true;
   };
   bool chord = false;  // the next step is a chord step (model.chord())
+  int posture_chords = 0;  // chord steps in a row that posture steps earned (kMaxPostureChords)
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
     if (ws.deadline.spent()) break;  // the time budget: kMaxIterations
@@ -690,7 +741,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = better(trial, trial_posture, current, current_posture, *met_cost);
-      if (!trial_ok && !chorded && (model.level_count() > 1 || !problem.posture.empty()) &&
+      if (!trial_ok && (model.level_count() > 1 || !problem.posture.empty()) &&
           model.correct(ws.params_trial.data(), ws.residual_trial)) {
         // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
         ws.dof_vec_b = ws.params_trial;
@@ -709,6 +760,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       continue;
     }
     if (trial_ok) {
+      const bool was_met = current.all_met();
       const double gain = progress(trial, trial_posture, current, current_posture);
       // The stall and creep rules ask the first unmet level the step moved (the posture when it
       // moved none): while a higher level moves, a lower level's or the posture's gain is no
@@ -746,7 +798,9 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (goals_left && creep_steps >= kStallIterations &&
           (tighten() || (any_pinned(tree, ws, model.columns(), params) && escape_stuck())))
         continue;
-      if (gain >= kChordGain && !model.cut()) {
+      const bool kept_met = was_met && current.all_met() && step_posture_gain > 0.0;
+      posture_chords = chorded && kept_met ? posture_chords + 1 : 0;
+      if (!model.cut() && (gain >= kChordGain || (kept_met && posture_chords < kMaxPostureChords))) {
         chord = true;  // the next iteration reuses J
       } else {
         tree_dof_axes(tree, params, ws);  // FK of params is what ws holds (the trial's)

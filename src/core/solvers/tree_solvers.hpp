@@ -3,9 +3,9 @@
 // kinematics in it (tree_forward_kinematics(tree, params, ws)); each solver allocates nothing,
 // throws nothing, keeps params within the limits and leaves them at the best pose it reached.
 #pragma once
-#include "core/kinematics.hpp"
-#include "core/result.hpp"
-#include "core/tree_solve.hpp"
+#include "core/kinematics_internal.hpp"
+#include "ikchain/result.hpp"
+#include "ikchain/tree_solve.hpp"
 
 namespace ikchain {
 

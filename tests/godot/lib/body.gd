@@ -1,6 +1,7 @@
 # Fixtures of the IKBody tests (test_ik_body.gd, test_ik_body_features.gd): a humanoid Skeleton3D
 # built from Godot's SkeletonProfileHumanoid (names, parents, reference poses: what a retargeted
-# glTF/FBX humanoid has), and an effector whose target is a sibling of the skeleton.
+# glTF/FBX humanoid has), an effector whose target is a sibling of the skeleton, target nodes,
+# the body's configuration warnings as one string and the angle between two rotations.
 
 static func humanoid() -> Skeleton3D:
 	var profile := SkeletonProfileHumanoid.new()
@@ -15,6 +16,26 @@ static func humanoid() -> Skeleton3D:
 		skel.set_bone_rest(i, profile.get_reference_pose(i))
 	skel.reset_bone_poses()
 	return skel
+
+
+## A target node named `name` at `t` under `parent` (the case root: a sibling of the skeleton).
+static func target(parent: Node, name: String, t: Transform3D) -> Node3D:
+	var n := Node3D.new()
+	n.name = name
+	n.transform = t
+	parent.add_child(n)
+	return n
+
+
+static func warnings(body: IKBody) -> String:
+	return "\n".join(body._get_configuration_warnings())
+
+
+## The angle between two rotations (rad), accurate for small angles (Quaternion.angle_to's acos
+## loses float precision near 0: ~7e-4 rad of noise).
+static func angle(a: Quaternion, b: Quaternion) -> float:
+	var d := minf((a - b).length(), (a + b).length())
+	return 4.0 * asin(minf(d * 0.5, 1.0))
 
 
 static func effector(bone: String, target: Node3D, priority := 1, position_weight := 1.0,

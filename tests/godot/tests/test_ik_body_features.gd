@@ -17,11 +17,7 @@ const LOOK_BONES := ["Head", "Neck", "UpperChest", "Chest", "Spine"]
 # ------------------------------------------------------------------ fixtures
 
 func _target(name: String, t: Transform3D) -> Node3D:
-	var n := Node3D.new()
-	n.name = name
-	n.transform = t
-	case_root.add_child(n)
-	return n
+	return Body.target(case_root, name, t)
 
 
 func _cone(bone: String, cone_deg: float, twist_deg: float) -> IKChainJoint:
@@ -38,16 +34,6 @@ func _cone(bone: String, cone_deg: float, twist_deg: float) -> IKChainJoint:
 ## The poses at the next skeleton_updated (lib/body.gd capture()).
 func _capture(skel: Skeleton3D, body: IKBody) -> Dictionary:
 	return await Body.capture(self, skel, body)
-
-
-func _warnings(body: IKBody) -> String:
-	return "\n".join(body._get_configuration_warnings())
-
-
-## The angle between two rotations (rad), accurate for small angles.
-static func _angle(a: Quaternion, b: Quaternion) -> float:
-	var d := minf((a - b).length(), (a + b).length())
-	return 4.0 * asin(minf(d * 0.5, 1.0))
 
 
 # ------------------------------------------------------------------ look-at spread
@@ -79,7 +65,7 @@ func _look_measure(skel: Skeleton3D, cap: Dictionary, e: IKBodyEffector, target_
 	for bone in LOOK_BONES:
 		var i := skel.find_bone(bone)
 		var rest := skel.get_bone_rest(i).basis.get_rotation_quaternion()
-		turns[bone] = _angle(rest, (cap["locals"][i] as Transform3D).basis.get_rotation_quaternion())
+		turns[bone] = Body.angle(rest, (cap["locals"][i] as Transform3D).basis.get_rotation_quaternion())
 	var head_global: Transform3D = cap["globals"][skel.find_bone("Head")]
 	var facing := (head_global.basis * e.look_axis).normalized()
 	var wanted := (target_position - head_global.origin).normalized()
@@ -245,7 +231,7 @@ func test_look_at_target_on_the_bone_keeps_a_defined_pose() -> void:
 		if not check((cap["globals"][i] as Transform3D).is_finite(), "finite pose"):
 			break
 	var head := skel.find_bone("Head")
-	check_le(_angle(skel.get_bone_rest(head).basis.get_rotation_quaternion(),
+	check_le(Body.angle(skel.get_bone_rest(head).basis.get_rotation_quaternion(),
 			(cap["locals"][head] as Transform3D).basis.get_rotation_quaternion()), 1e-3, "the head does not turn")
 
 
@@ -298,7 +284,7 @@ func test_look_at_bad_settings_are_named_with_their_fix() -> void:
 		body.root_bone = "Hips"
 		body.effectors = [e]
 		skel.add_child(body)
-		var w := _warnings(body)
+		var w := Body.warnings(body)
 		check(w.contains(c[2]), "warning contains '%s'; got: %s" % [c[2], w])
 		# The body still runs (or keeps the animated pose): a defined, finite pose either way.
 		var cap := await _capture(skel, body)

@@ -26,8 +26,8 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/chain.hpp"
-#include "core/message.hpp"
+#include "ikchain/chain.hpp"
+#include "ikchain/message.hpp"
 
 namespace ikchain {
 

@@ -1,45 +1,16 @@
-// Forward kinematics, goal residuals and the goal Jacobian, shared by every solver.
+// The solvers' side of the kinematics: goal residual rows, the goal Jacobian and its columns, the
+// step update, and the limits' active set (which joints a step must not push out). The public side
+// (forward kinematics, effectors, goal errors, projection onto limits) is ikchain/kinematics.hpp.
 #pragma once
 #include <Eigen/Dense>
 
-#include "core/chain.hpp"
-#include "core/goal.hpp"
-#include "core/options.hpp"
-#include "core/so3.hpp"
-#include "core/span.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/kinematics.hpp"
 
 namespace ikchain {
 
-// Fills ws.joint_origins, joint_orientations, joint_pre_rotations and ws.tip from params.
-void forward_kinematics(const Chain& chain, const double* params, Workspace& ws);
-
-// Local rotation R_i(params) of joint i (excluding its rest rotation). Inline: FK's inner loop.
-inline glm::dquat joint_motion(const Chain& chain, int joint, const double* params) {
-  const double* p = params + chain.dof_offset(joint);
-  if (chain.joint_type(joint) == JointType::kPrismatic) return glm::dquat(1.0, 0.0, 0.0, 0.0);
-  if (chain.joint_type(joint) == JointType::kHinge) {
-    double s, c;
-    so3::fast_sincos(0.5 * p[0], s, c);
-    const glm::dvec3& a = chain.hinge_axis(joint);  // unit length (ChainBuilder)
-    return glm::dquat(c, s * a.x, s * a.y, s * a.z);
-  }
-  return so3::exp(glm::dvec3(p[0], p[1], p[2]));
-}
-
-// Effector k in 1..n (0 = the tip); see chain.hpp. Valid after forward_kinematics().
-int resolve_effector(const Chain& chain, int effector);
-glm::dvec3 effector_position(const Chain& chain, const Workspace& ws, int effector);
-// The frame of the bone ending at the effector; for the tip, the tip (tool) frame (chain.hpp).
-glm::dquat effector_orientation(const Chain& chain, const Workspace& ws, int effector);
 // kAimAt: the unit direction from the goal's effector to its point and the distance; false when
-// the effector sits on the point (no direction to aim along: the goal is met), nearer to it than
-// kAimAtOnPoint * (the chain's length + the point's distance from the base). Nearer, the direction
-// would be mostly rounding: the positions it is taken from carry a few ulps of their magnitude,
-// and the angle's error is that over the distance. Valid after forward_kinematics().
-constexpr double kAimAtOnPoint = 1e-6;
-// That radius for `goal` on `chain` (m): kAimAtOnPoint * (chain length + |point|).
-double aim_at_on_point_radius(const Chain& chain, const Goal& goal);
+// the effector sits on the point (nearer than aim_at_on_point_radius: no direction to aim along,
+// the goal is met). Valid after forward_kinematics().
 bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal, glm::dvec3& direction,
                       double& distance);
 
@@ -49,36 +20,15 @@ bool aim_at_direction(const Chain& chain, const Workspace& ws, const Goal& goal,
 glm::dvec3 goal_error_at(const Goal& goal, const glm::dvec3& effector_position, const glm::dquat& effector_orientation,
                          double on_point_radius);
 
-// Goal::pose with the chain's length as the characteristic length, times rotation_weight (1: a
-// radian of orientation error counts like one chain length of position error).
-inline std::array<Goal, 2> pose_goals(const Chain& chain, const glm::dvec3& position_in_base,
-                                      const glm::dquat& orientation_in_base, int effector = 0,
-                                      double rotation_weight = 1.0) {
-  return Goal::pose(position_in_base, orientation_in_base, rotation_weight * chain.total_length(), effector);
-}
-
 // Base-frame rotation axis of every DOF: ws.dof_axes. For a ball joint these are the columns of
 // pre_rotation * J_l(r), so that d(params) maps exactly to angular velocity in the base frame.
 // Valid after forward_kinematics().
 void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws);
 
-struct GoalErrors {
-  double cost = 0.0;               // 0.5 * sum_g w_g |e_g|^2
-  double combined = 0.0;           // sqrt(sum_g w_g |e_g|^2)
-  double max_position = 0.0;       // worst position goal (m)
-  double max_orientation = 0.0;    // worst orientation/aim goal (rad)
-  bool within(const SolverOptions& o) const {
-    return max_position <= o.position_tolerance && max_orientation <= o.orientation_tolerance;
-  }
-};
-
 // Residual rows e_g * sqrt(w_g) into `residual` (3 per goal, desired - current), after
 // forward_kinematics(). Returns the errors.
 GoalErrors evaluate_goals(const Chain& chain, Span<const Goal> goals, const Workspace& ws,
                           Eigen::Ref<Eigen::VectorXd> residual);
-
-// Same without writing residual rows.
-GoalErrors measure_goals(const Chain& chain, Span<const Goal> goals, const Workspace& ws);
 
 // Jacobian of the weighted residual rows w.r.t. params (d current / d params, i.e. the sign that
 // makes J * dparams ~= the achieved change of the effectors), 3 rows per goal.
@@ -125,10 +75,6 @@ inline glm::dvec3 translation_column(GoalKind kind, const glm::dvec3& w, const G
 // rotation vectors at angle <= pi. `step` has dof_count entries.
 void apply_step(const Chain& chain, const double* step, double max_step_angle, double* params);
 
-// Joint-space limits (hinge range, cone swing, twist range), one joint at a time: the one mechanism
-// chains and trees share. `p` points at the joint's own params (1 or 3).
-void project_joint_params(JointType type, const JointLimits& limits, double* p);
-bool joint_within_limits(JointType type, const JointLimits& limits, const double* p, double slack = 1e-9);
 // A limited 1-DOF joint (hinge, slide: is_one_dof(type)) at `value` resting on a bound of its range
 // (param_range, within 1e-12) that a change with the sign of `direction` would push out.
 inline bool one_dof_blocked(JointType type, const JointLimits& l, double value, double direction) {
@@ -153,10 +99,6 @@ inline int joint_params_blocked(JointType type, const JointLimits& limits, const
 // either way), a ball on its cone or a twist bound (ball_params_on_boundary). `p`: its own params.
 bool joint_params_at_limit(JointType type, const JointLimits& limits, const double* p);
 
-// Joint-space limits (hinge range, cone swing, twist range): project params onto the feasible set.
-void project_to_limits(const Chain& chain, double* params);
-// The same for one joint (CCD and FABRIK apply limits joint by joint).
-void project_joint_to_limits(const Chain& chain, int joint, double* params);
 // True when joint `joint` is a limited hinge (or prismatic joint) resting on a bound (within 1e-12 rad) and a change of
 // its angle by `direction` (its sign is what counts) would push it out: the active set of the
 // Jacobian solvers' limit-aware steps and of BFGS's projected steps (ball joints: ball_blocked).
@@ -179,8 +121,6 @@ int ball_blocked(const Chain& chain, int joint, const double* params, const doub
                  glm::dvec3 normals[2]);
 // True when ball `joint` rests on its cone or a twist bound (ball_blocked's test, whatever the step).
 bool ball_on_boundary(const Chain& chain, int joint, const double* params);
-// How many of the chain's joints rest on a limit (joint_params_at_limit) at params.
-int joints_at_limit(const Chain& chain, const double* params);
 // Removes the component along unit `normal` (rotation-vector space) from the 3 DOF columns
 // o..o+2 of the first `rows` rows of `jacobian`, J <- J (I - n n^T): a minimum-norm or damped step
 // solved over the result has no component along n. For a hinge the same is zeroing its column.
@@ -195,7 +135,4 @@ inline void remove_ball_direction(Eigen::MatrixXd& jacobian, int rows, int o, co
     c2[r] -= v * normal.z;
   }
 }
-// True when every joint respects its limits within `slack` (rad).
-bool within_limits(const Chain& chain, const double* params, double slack = 1e-9);
-
 }  // namespace ikchain

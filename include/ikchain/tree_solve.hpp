@@ -16,12 +16,12 @@
 
 #include <Eigen/Dense>
 
-#include "core/deadline.hpp"
-#include "core/goal.hpp"
-#include "core/options.hpp"
-#include "core/result.hpp"
-#include "core/span.hpp"
-#include "core/tree.hpp"
+#include "ikchain/deadline.hpp"
+#include "ikchain/goal.hpp"
+#include "ikchain/options.hpp"
+#include "ikchain/result.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/tree.hpp"
 
 namespace ikchain {
 

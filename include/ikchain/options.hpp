@@ -4,7 +4,7 @@
 
 #include <glm/glm.hpp>
 
-#include "core/message.hpp"
+#include "ikchain/message.hpp"
 
 namespace ikchain {
 

@@ -20,8 +20,8 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/joint_traits.hpp"
-#include "core/message.hpp"
+#include "ikchain/joint_traits.hpp"
+#include "ikchain/message.hpp"
 
 namespace ikchain {
 

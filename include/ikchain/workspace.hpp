@@ -7,8 +7,8 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/deadline.hpp"
-#include "core/goal.hpp"
+#include "ikchain/deadline.hpp"
+#include "ikchain/goal.hpp"
 
 namespace ikchain {
 

@@ -1,6 +1,6 @@
 // One result struct for every solver (like Ceres' Solver::Summary).
 #pragma once
-#include "core/message.hpp"
+#include "ikchain/message.hpp"
 
 namespace ikchain {
 

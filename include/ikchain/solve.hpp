@@ -2,12 +2,12 @@
 #pragma once
 #include <Eigen/Dense>
 
-#include "core/chain.hpp"
-#include "core/goal.hpp"
-#include "core/options.hpp"
-#include "core/result.hpp"
-#include "core/span.hpp"
-#include "core/workspace.hpp"
+#include "ikchain/chain.hpp"
+#include "ikchain/goal.hpp"
+#include "ikchain/options.hpp"
+#include "ikchain/result.hpp"
+#include "ikchain/span.hpp"
+#include "ikchain/workspace.hpp"
 
 namespace ikchain {
 

@@ -13,7 +13,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "core/so3.hpp"
+#include "ikchain/so3.hpp"
 
 namespace ikchain {
 
