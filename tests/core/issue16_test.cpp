@@ -900,9 +900,9 @@ TEST(Issue16, TorsoArmPositionGoalsWithoutRestarts) {
 // bench solves them: from the middle of the limits, Goal::pose with the chain's length, no restart,
 // success by 4x4 transforms within 1e-5 L and 1e-4 rad and within the limits. With 300 iterations
 // (room for the far escapes) the bench's 2,000 goals failed 40 / 41 / 55 times (pseudo-inverse /
-// DLS / BFGS) with the far escape after two fruitless local ones, up to 3 of them and a creep
-// stuck at 6 iterations; now 3 / 3 / 30 (`robots_bench --iterations 300`, docs/robots-bench.md).
-// On this test's own 2,000 goals: 2000 / 1995 / 1981 reached now; the bounds are 10 / 10 / 30 failures.
+// DLS / BFGS) with up to 3 far escapes; now, with 16 (stuck::kFarEscapes), 4 / 4 / 28
+// (`robots_bench --iterations 300`, docs/robots-bench.md). On this test's own 2,000 goals:
+// 2000 / 1995 / 1979 reached now; the bounds are 10 / 10 / 30 failures.
 Chain ur5() {
   const double c = 0.7071067811882787, s = 0.7071067811848163, kTurn = 6.28318530718, kHalf = 3.14159265359;
   const std::vector<bench::UrdfHinge> joints = {
