@@ -33,7 +33,7 @@ struct SolverOptions {
   double position_tolerance = 1e-5;    // m; converged when every position goal is this close
   double orientation_tolerance = 1e-4; // rad; converged when every orientation/aim goal is this close
   // A solve is stuck when 3 iterations in a row lower the best objective seen by less than this
-  // fraction of it (relative, dimensionless); it then escapes (at most 5 times; 8 for a query: solvers.md, "The escape") or stops as
+  // fraction of it (relative, dimensionless); it then escapes (at most 5 times; 21 for a query: solvers.md, "The escape") or stops as
   // "stalled" (solvers/stuck.hpp, docs/solvers.md "When a solve is stuck").
   double stall_tolerance = 1e-10;
   // true: start from the params given (the current pose); false: start from the rest pose

@@ -36,7 +36,7 @@ struct SolveResult {
   // kMaxIterations, or kUnreachable when the pose it stopped at is provably a best reach).
   bool budget_exhausted = false;
   int restarts = 0;  // restarts run (SolverOptions::max_restarts); iterations include theirs
-  // Escapes from stuck poses inside the solver runs (at most 5 per run, 8 for a query, restarts' included;
+  // Escapes from stuck poses inside the solver runs (at most 5 per run, 21 for a query, restarts' included;
   // docs/solvers.md, "When a solve is stuck"). Deterministic, like everything else here.
   int escapes = 0;
   // Joints resting on a limit at the returned pose (a hinge or slide at a bound, a ball on its cone

@@ -4,6 +4,7 @@
 #include <random>
 #include <vector>
 
+#include "core/solvers/stuck.hpp"
 #include "solver_test_util.hpp"
 
 namespace ikchain {
@@ -155,7 +156,13 @@ TEST(Bfgs, LimitsRespectedAndFeasibleTargetsReached) {
           EXPECT_LE(glm::length(test::tip_of(c, p) - goals[0].target_position), o.position_tolerance);
           ++ok;
         } else if (ball == 0) {
-          EXPECT_EQ(r.reason, TerminationReason::kStalled);
+          // Stalled once the escapes are spent - or, a query with far escapes left (beyond
+          // stuck::kMaxEscapes: up to stuck::kFarEscapes more), cut off by max_iterations between
+          // them, at the best pose seen (two of these 500 with 16 far escapes: the same minima
+          // as with 3, where they stalled after 8 escapes; issue 16, item 20).
+          EXPECT_TRUE(r.reason == TerminationReason::kStalled ||
+                      (r.reason == TerminationReason::kMaxIterations && r.escapes > stuck::kMaxEscapes))
+              << to_string(r.reason) << " after " << r.escapes << " escapes, chain " << chain_i << " trial " << t;
           // At the minimum, or near it when a creep along a bound with no escape left stopped
           // (it would creep on in vain: issue 16, item 14).
           EXPECT_LE(projected_gradient_rel(c, goals[0], p), 1e-2) << "chain " << chain_i << " trial " << t;

@@ -63,14 +63,19 @@ constexpr int kStallIterations = 3;
 // linearly and do not ask (the value: docs/solvers.md, "Why these constants").
 constexpr double kCreepGain = 1e-2;
 // Creeping iterations in a row (each gaining < kCreepGain) that are stuck wherever the pose is,
-// for a query (Escapes::creep_is_long).
+// for a query (Escapes::creep_is_long). Not the stall window itself (3): that escaped BFGS's slow
+// but sound approaches on a 100-joint chain (core_bench: 2 of 500 goals lost) and cost the
+// synthetic limited arms' full poses a few goals (issue 16, item 20).
 constexpr int kLongCreep = 2 * kStallIterations;
 // Escapes per solve (the pseudo-inverse's path can fall back into a saddle after one escape): the
 // gentle first one and four full ones. The tree solvers' budget too.
 constexpr int kMaxEscapes = 5;
 // A chain solve's escapes may go this many beyond kMaxEscapes, for far ones (far()): each restarts
-// the descent from afar, so it needs room of its own after the local moves have failed.
-constexpr int kFarEscapes = 3;
+// the descent from afar, so it needs room of its own after the local moves have failed. Bounded
+// by max_iterations and the time budget anyway: with 300 iterations, the robots bench's UR5
+// full-pose failures (pseudo-inverse / DLS / BFGS, of 2,000) fall from 40 / 41 / 55 at 3 to
+// 4 / 4 / 28 at 16, UR10's from 61 / 72 / 87 to 10 / 32 / 34; at 100 no arm loses a goal.
+constexpr int kFarEscapes = 16;
 // An escape pays off when the solve then gets below kEscapeGain times the best cost before it. One
 // that led to a lower but not that much lower minimum found a nearby trap, and so would another:
 // when restarts are allowed (SolverOptions::max_restarts), the solve stops there and the restarts,
@@ -100,6 +105,10 @@ constexpr double kGentleError = 0.05;
 // left) after which a query's next escape is a far one (far()): the local moves have shown that this
 // minimum's basin is wider than they reach. A 10-DOF torso + arm whose elbow branch is wrong, a
 // UR5 whose straight elbow holds a full pose 8 mm off: every local move led back (issue 16, item 20).
+// Not one: the UR10 then failed 114 / 156 / 319 full poses of 2,000 at 100 iterations (pseudo-
+// inverse / DLS / BFGS) against 78 / 128 / 213 with two, and 76 / 78 / 138 against 61 / 72 / 87 at
+// 300 (presumably: a query then makes one local escape at most, so the off-the-bounds moves that
+// wrap its +-pi hinges across their bounds rarely come; not traced).
 constexpr int kFruitlessBeforeFar = 2;
 // A solve that starts farther than this fraction of the chain's length from its goals is a query
 // (Escapes::cold_query), not the next frame of a track: a tracked target held 13 cm beyond what
