@@ -374,7 +374,7 @@ struct Outcome {
   const char* reason = "";
   // Between clock readings: the longest CPU time and the time after the last (--cpu-clock), and
   // the longest charged stretch against its bound (Deadline::stretch_bound).
-  double longest_gap_us = 0.0, tail_us = 0.0, longest_flops = 0.0, flops_bound = 0.0;
+  double longest_gap_us = 0.0, tail_us = 0.0, longest_flops = 0.0, flops_bound = 0.0, setup_us = 0.0;
 };
 
 // Case `index` of `seed`: draws the problem, solves it once on a budget, measures it.
@@ -404,6 +404,7 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     out.tail_us = c0 + out.cpu - g_last_reading;
     out.longest_gap_us = g_longest_gap;
     out.longest_flops = ws.deadline.longest_stretch;
+    out.setup_us = ws.deadline.setup_gap_us;
     out.flops_bound =
         Deadline::stretch_bound(k.chain.joint_count(), k.chain.dof_count(), 3 * static_cast<int>(k.goals.size()));
     out.wall = wall_us() - w0;
@@ -434,6 +435,7 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     out.cpu = thread_cpu_us() - c0;
     out.tail_us = c0 + out.cpu - g_last_reading;
     out.longest_gap_us = g_longest_gap;
+    out.setup_us = ws.deadline.setup_gap_us;
     out.wall = wall_us() - w0;
     if (res.summary.reason == TerminationReason::kInvalidInput) return false;
     out.tree = true;
@@ -530,8 +532,8 @@ int main(int argc, char** argv) {
     const double excess = o.cpu - (kRatio * o.budget + kSlackUs);
     if (list_over && excess > 0.0)
       std::printf("over: case %ld %s %d dof, budget %.1f us, cpu %.1f us (%+.1f us), %s, %d it, longest gap %.1f us, "
-                  "after the last reading %.1f us; %s\n", index, o.solver.c_str(), o.dofs, o.budget, o.cpu, excess,
-                  o.reason, o.iterations, o.longest_gap_us, o.tail_us, o.what.c_str());
+                  "set-up %.1f us, after the last reading %.1f us; %s\n", index, o.solver.c_str(), o.dofs, o.budget,
+                  o.cpu, excess, o.reason, o.iterations, o.longest_gap_us, o.setup_us, o.tail_us, o.what.c_str());
     humanoid_solves += o.humanoid;
     humanoid_over += o.humanoid && excess > 0.0;
     for (int b = 0; b < kBuckets; ++b)

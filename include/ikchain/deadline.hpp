@@ -47,7 +47,8 @@ struct Deadline {
     foreseen = false;
     stretch = longest_stretch = 0.0;
     last_reading_us = start_us;
-    longest_gap_us = 0.0;
+    longest_gap_us = setup_gap_us = 0.0;
+    budget_readings = 0;
     bound_end_us = start_us + kBoundRatio * budget_us + kBoundSlackUs;
   }
   // True once the time is spent; then `hit` records that the solve stopped for it.
@@ -61,9 +62,15 @@ struct Deadline {
     if (!every_call) return false;
     // The budget: the next stretch and the exit work, each as long as the longest gap so far, must
     // end within the bound (see the top).
-    longest_gap_us = std::max(longest_gap_us, now - last_reading_us);
+    const double gap = now - last_reading_us;
+    const bool first = ++budget_readings == 1;
+    longest_gap_us = std::max(longest_gap_us, gap);
     last_reading_us = now;
-    if (now + 2.0 * longest_gap_us + kReserveUs <= bound_end_us) return false;
+    // The first reading has seen only the set-up (the start pose's FK and measure, a solver's first
+    // linearisation): an iteration does more (kFirstStretchRatio of it), the exit work about as much.
+    if (first) setup_gap_us = gap;
+    const double ahead = first ? (kFirstStretchRatio + 1.0) * gap : 2.0 * longest_gap_us;
+    if (now + ahead + kReserveUs <= bound_end_us) return false;
     foreseen = true;
     return hit = true;
   }
@@ -94,6 +101,7 @@ struct Deadline {
   // The bound on a budget-bound solve's time (issue 16, item 6), and what a stop keeps in reserve
   // beyond the predicted stretches (the clock reading's own cost and rounding).
   static constexpr double kBoundRatio = 1.1, kBoundSlackUs = 20.0, kReserveUs = 1.0;
+  static constexpr double kFirstStretchRatio = 3.0;
 
   bool active = false;
   bool every_call = false;  // a budget is set: read the clock at every check
@@ -105,6 +113,8 @@ struct Deadline {
   bool foreseen = false;         // hit before end_us: the next stretch would have ended past bound_end_us
   double bound_end_us = 0.0;     // start + kBoundRatio x budget + kBoundSlackUs
   double last_reading_us = 0.0, longest_gap_us = 0.0;  // budget readings: the last, the longest gap between two
+  double setup_gap_us = 0.0;  // from start() to the first budget reading
+  unsigned budget_readings = 0;
 
  private:
   void close_stretch() {
