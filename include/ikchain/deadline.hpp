@@ -16,9 +16,11 @@
 // FK passes. So every budget reading also measures the time since the reading before (the gap),
 // and the budget counts as spent from the reading after which the longest gap of the solve so far,
 // twice (the next stretch, then the exit work, each at most the longest seen), would end past the
-// bound the issue sets, kBoundRatio x budget + kBoundSlackUs. On a clock whose gaps are short
-// against that slack (every fake-clock test with ticks below ~10 us) this never comes before the
-// budget's own end; `foreseen` says when it did.
+// bound the issue sets, kBoundRatio x budget + kBoundSlackUs. The first reading has seen only the
+// set-up, which an iteration outgrows: there the next stretch counts as kFirstStretchRatio set-up
+// gaps (and the exit work as one). On a clock whose gaps are short against the slack (the
+// fake-clock tests' ticks of 1 us) this never comes before the budget's own end; `foreseen` says
+// when it did.
 #pragma once
 #include <algorithm>
 #include <chrono>

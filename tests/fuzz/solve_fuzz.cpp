@@ -454,7 +454,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (ws.deadline.hit) {
     // (The reading before may be the arming one, at g_tick, when the budget is below its ulp.)
     // It found it spent at the budget's end, or before it when the next stretch and the exit work,
-    // each as long as the longest gap so far, would have ended past the bound (Deadline::foreseen).
+    // predicted from the gaps between readings, would have ended past the bound (Deadline::foreseen).
     REQUIRE((clock_end >= ws.deadline.end_us || (ws.deadline.foreseen && clock_end == ws.deadline.last_reading_us)) &&
                 (clock_before_end < ws.deadline.end_us || clock_before_end == g_tick),
             "the clock was read again after the budget was found spent", clock_end, ws.deadline.end_us);
