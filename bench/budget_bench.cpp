@@ -15,7 +15,7 @@
 // wall-clock time; under load it ends a solve before its CPU time reaches it), or with --cpu-clock
 // on the thread's CPU clock, so that a preempted time slice cannot hide an overrun.
 //
-//   budget_bench [--seconds S] [--seed N] [--cpu-clock] [--case I] [--out DIR]
+//   budget_bench [--seconds S] [--seed N] [--cpu-clock] [--case I] [--out DIR] [--list-over]
 // Prints one line per solver (solves, budget-bound ones, solves over the bound, worst CPU / budget
 // and worst excess over the bound, with the case that made it) and writes DIR/budget.json
 // (default build/bench). A solve over the bound is re-run twice and judged by its least CPU time
@@ -24,6 +24,7 @@
 // problem on its workspace (a game reuses its workspace; first-touch page faults are not the
 // solver's). --case I re-runs case I alone and prints what it was and where its time went (the
 // longest CPU time between two clock readings, the time after the last, the longest charged stretch).
+// --list-over prints every solve over the bound (after its re-runs) with the same numbers.
 #include <time.h>
 
 #include <algorithm>
@@ -373,7 +374,7 @@ struct Outcome {
   const char* reason = "";
   // Between clock readings: the longest CPU time and the time after the last (--cpu-clock), and
   // the longest charged stretch against its bound (Deadline::stretch_bound).
-  double longest_gap_us = 0.0, tail_us = 0.0, longest_flops = 0.0, flops_bound = 0.0;
+  double longest_gap_us = 0.0, tail_us = 0.0, longest_flops = 0.0, flops_bound = 0.0, setup_us = 0.0;
 };
 
 // Case `index` of `seed`: draws the problem, solves it once on a budget, measures it.
@@ -403,6 +404,7 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     out.tail_us = c0 + out.cpu - g_last_reading;
     out.longest_gap_us = g_longest_gap;
     out.longest_flops = ws.deadline.longest_stretch;
+    out.setup_us = ws.deadline.setup_gap_us;
     out.flops_bound =
         Deadline::stretch_bound(k.chain.joint_count(), k.chain.dof_count(), 3 * static_cast<int>(k.goals.size()));
     out.wall = wall_us() - w0;
@@ -433,6 +435,7 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     out.cpu = thread_cpu_us() - c0;
     out.tail_us = c0 + out.cpu - g_last_reading;
     out.longest_gap_us = g_longest_gap;
+    out.setup_us = ws.deadline.setup_gap_us;
     out.wall = wall_us() - w0;
     if (res.summary.reason == TerminationReason::kInvalidInput) return false;
     out.tree = true;
@@ -458,6 +461,7 @@ int main(int argc, char** argv) {
   double seconds = 60.0;
   uint64_t seed = 1;
   long only_case = -1;
+  bool list_over = false;
   std::string out_dir = "build/bench";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -467,8 +471,9 @@ int main(int argc, char** argv) {
     else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
     else if (a == "--cpu-clock") g_cpu_clock = true;
     else if (a == "--quick") seconds = 10.0;
+    else if (a == "--list-over") list_over = true;
     else {
-      std::fprintf(stderr, "usage: budget_bench [--seconds S] [--seed N] [--cpu-clock] [--case I] [--out DIR]\n");
+      std::fprintf(stderr, "usage: budget_bench [--seconds S] [--seed N] [--cpu-clock] [--case I] [--out DIR] [--list-over]\n");
       return 2;
     }
   }
@@ -525,6 +530,10 @@ int main(int argc, char** argv) {
       if (again.cpu < o.cpu) o = again;
     }
     const double excess = o.cpu - (kRatio * o.budget + kSlackUs);
+    if (list_over && excess > 0.0)
+      std::printf("over: case %ld %s %d dof, budget %.1f us, cpu %.1f us (%+.1f us), %s, %d it, longest gap %.1f us, "
+                  "set-up %.1f us, after the last reading %.1f us; %s\n", index, o.solver.c_str(), o.dofs, o.budget,
+                  o.cpu, excess, o.reason, o.iterations, o.longest_gap_us, o.setup_us, o.tail_us, o.what.c_str());
     humanoid_solves += o.humanoid;
     humanoid_over += o.humanoid && excess > 0.0;
     for (int b = 0; b < kBuckets; ++b)

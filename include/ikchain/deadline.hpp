@@ -9,6 +9,18 @@
 // closes the stretch since the one before (the first from start(), the last, the exit work after
 // the deadline, at finish()). longest_stretch is deterministic: tests and the fuzzer compare it with
 // stretch_bound() of the problem's size.
+//
+// Stopping before a stretch that would overrun (issue 16, item 6): some stretches cannot be split
+// finely (a tree DLS step on 200+ DOF, ~70 us; a BFGS line-search trial on 600 DOF, ~95 us), and the
+// exit work after the last reading (final FK, summary, the best pose put back) is as long as a few
+// FK passes. So every budget reading also measures the time since the reading before (the gap),
+// and the budget counts as spent from the reading after which the longest gap of the solve so far,
+// twice (the next stretch, then the exit work, each at most the longest seen), would end past the
+// bound the issue sets, kBoundRatio x budget + kBoundSlackUs. The first reading has seen only the
+// set-up, which an iteration outgrows: there the next stretch counts as kFirstStretchRatio set-up
+// gaps (and the exit work as one). On a clock whose gaps are short against the slack (the
+// fake-clock tests' ticks of 1 us) this never comes before the budget's own end; `foreseen` says
+// when it did.
 #pragma once
 #include <algorithm>
 #include <chrono>
@@ -34,7 +46,12 @@ struct Deadline {
     end_us = start_us + (budget && cap ? std::min(budget_us, cap_us) : budget ? budget_us : cap_us);
     calls = 0;
     hit = false;
+    foreseen = false;
     stretch = longest_stretch = 0.0;
+    last_reading_us = start_us;
+    longest_gap_us = setup_gap_us = 0.0;
+    budget_readings = 0;
+    bound_end_us = start_us + kBoundRatio * budget_us + kBoundSlackUs;
   }
   // True once the time is spent; then `hit` records that the solve stopped for it.
   bool spent() {
@@ -42,9 +59,22 @@ struct Deadline {
     if (!active) return false;
     if (!every_call && (++calls & 7u) != 0u) return false;  // the cap alone: every 8th call
     close_stretch();
-    if (now_us() < end_us) return false;
-    hit = true;
-    return true;
+    const double now = now_us();
+    if (now >= end_us) return hit = true;
+    if (!every_call) return false;
+    // The budget: the next stretch and the exit work, each as long as the longest gap so far, must
+    // end within the bound (see the top).
+    const double gap = now - last_reading_us;
+    const bool first = ++budget_readings == 1;
+    longest_gap_us = std::max(longest_gap_us, gap);
+    last_reading_us = now;
+    // The first reading has seen only the set-up (the start pose's FK and measure, a solver's first
+    // linearisation): an iteration does more (kFirstStretchRatio of it), the exit work about as much.
+    if (first) setup_gap_us = gap;
+    const double ahead = first ? (kFirstStretchRatio + 1.0) * gap : 2.0 * longest_gap_us;
+    if (now + ahead + kReserveUs <= bound_end_us) return false;
+    foreseen = true;
+    return hit = true;
   }
 
   // Inside a loop over joints whose update per joint is heavy (CCD's and FABRIK's fits, 0.2-1.5 us
@@ -70,6 +100,11 @@ struct Deadline {
            kStretchPasses * (kFlopsPerJoint * joints + kFlopsPerJacobianEntry * static_cast<double>(dofs) * rows);
   }
 
+  // The bound on a budget-bound solve's time (issue 16, item 6), and what a stop keeps in reserve
+  // beyond the predicted stretches (the clock reading's own cost and rounding).
+  static constexpr double kBoundRatio = 1.1, kBoundSlackUs = 20.0, kReserveUs = 1.0;
+  static constexpr double kFirstStretchRatio = 3.0;
+
   bool active = false;
   bool every_call = false;  // a budget is set: read the clock at every check
   bool hit = false;
@@ -77,6 +112,11 @@ struct Deadline {
   double end_us = 0.0;
   double stretch = 0.0;          // flops charged since the last clock reading
   double longest_stretch = 0.0;  // the most flops between two readings since start()
+  bool foreseen = false;         // hit before end_us: the next stretch would have ended past bound_end_us
+  double bound_end_us = 0.0;     // start + kBoundRatio x budget + kBoundSlackUs
+  double last_reading_us = 0.0, longest_gap_us = 0.0;  // budget readings: the last, the longest gap between two
+  double setup_gap_us = 0.0;  // from start() to the first budget reading
+  unsigned budget_readings = 0;
 
  private:
   void close_stretch() {

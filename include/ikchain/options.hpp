@@ -46,9 +46,12 @@ struct SolverOptions {
   // pseudo-inverse, and inside the long inner loops (the pseudo-inverse's halvings, BFGS's
   // line-search steps and its O(n^2) passes every 64 columns, CCD's and FABRIK's sweeps every 16
   // joints, the sweeps of eigen-decompositions of 9 x 9 and up, the escapes), so a solve overruns
-  // it by at most one such piece plus the exit work: measured against 1.1 x budget + 20 us of CPU
-  // time by bench/budget_bench.cpp (`scripts/bench --budget`; docs/solvers.md, "Time budget and
-  // the safety cap"). The result then has reason kMaxIterations (or kUnreachable for a provable
+  // it by at most one such piece plus the exit work. Each check also times the gap since the one
+  // before, and the solve stops before the budget's end when the next piece and the exit work,
+  // predicted from those gaps, would end past 1.1 x budget + 20 us (Deadline::foreseen; a budget
+  // too small for one iteration may then return the start pose). Measured against that bound in
+  // CPU time by bench/budget_bench.cpp (`scripts/bench --budget`; docs/solvers.md, "Time budget
+  // and the safety cap"). The result then has reason kMaxIterations (or kUnreachable for a provable
   // best reach) and budget_exhausted = true, with the best pose reached so far.
   double time_budget_usec = 0.0;
   // A safety cap on every solve's wall-clock time (microseconds, >= 0; 0 = none), on whether or not

@@ -14,6 +14,7 @@
 #include "joint_desc.hpp"  // bench/
 #include "solver_test_util.hpp"
 #include "telescope_arm.hpp"
+#include "tree_test_util.hpp"
 
 namespace ikchain {
 namespace {
@@ -462,6 +463,75 @@ TEST(Issue16, TimeBudgetSplitsTheGramProductOfALongChain) {
       EXPECT_GT(step.norm(), 0.0);
     }
   }
+}
+
+// Item 6, stretches that cannot be split finely (a tree DLS step on 200+ DOF, ~70 us; a BFGS
+// line-search trial on 600 DOF, ~95 us) and the exit work after the last reading: a clock reading
+// that finds the budget not yet spent must still stop the solve when the next stretch and the exit
+// work, each as long as the longest gap between readings so far, would end past 1.1 x budget +
+// 20 us. A fake clock that advances `tick` per reading makes every stretch `tick` long: the solve
+// ends one tick (its exit work) after its last reading, and that must be within the bound, with
+// budget_exhausted set. Before (main at bffd21a), the budget stopped a solve only at the first
+// reading past it: 40 us stretches on a 100 us budget ended at 160 us, past the 130 us bound.
+double g_long_tick = 0.0;
+double long_stretch_clock() { return g_fake_now += g_long_tick; }
+
+TEST(Issue16, TimeBudgetStopsBeforeAStretchThatWouldOverrun) {
+  const Chain c = test::make_hinge_chain(40, 0.05);
+  std::mt19937 rng(18);
+  const std::vector<Goal> goals = {Goal::position(test::tip_of(c, test::random_params(c, rng, 1.0)))};
+  Workspace ws(c, 1);
+  ws.deadline.clock_us = &long_stretch_clock;
+  SolverOptions o = test::cold_start_options(c);
+  o.position_tolerance = 1e-300;  // never met: the budget stops every solve
+  o.stall_tolerance = 0.0;
+  o.max_iterations = 100000;
+  const Tree tree = test::make_humanoid(true);
+  TreeWorkspace tws(tree, 12);
+  tws.deadline.clock_us = &long_stretch_clock;
+  std::mt19937 tree_rng(5);
+  const std::vector<TreeGoal> tree_goals = test::pose_goals_at(
+      tree, test::random_tree_params(tree, tree_rng, 1.0, 0.2),
+      {test::Humanoid::kLHand, test::Humanoid::kRHand, test::Humanoid::kLFoot, test::Humanoid::kRFoot}, 1);
+  TreeProblem problem;
+  problem.goals = Span<const TreeGoal>(tree_goals);
+  int foreseen = 0, solves = 0;
+  for (double tick : {25.0, 40.0}) {
+    for (double budget : {60.0, 100.0, 170.0, 400.0}) {
+      const double bound = Deadline::kBoundRatio * budget + Deadline::kBoundSlackUs;
+      g_long_tick = tick;
+      o.time_budget_usec = budget;
+      for (SolverKind kind : kIterative) {
+        g_fake_now = 0.0;
+        Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+        const SolveResult r = test::run(kind, c, goals, o, ws, p);
+        // The last reading + one tick of exit work - the arming reading (at tick).
+        const double ended = g_fake_now;
+        EXPECT_TRUE(r.budget_exhausted) << to_string(kind) << " tick " << tick << " budget " << budget;
+        EXPECT_EQ(r.reason, TerminationReason::kMaxIterations) << to_string(kind);
+        EXPECT_LE(ended, bound) << to_string(kind) << " tick " << tick << " budget " << budget;
+        EXPECT_LE(r.final_error, r.initial_error) << to_string(kind);
+        foreseen += ws.deadline.foreseen;
+        ++solves;
+      }
+      for (SolverKind kind : {SolverKind::kDLS, SolverKind::kBFGS, SolverKind::kCCD, SolverKind::kFABRIK}) {
+        g_fake_now = 0.0;
+        Eigen::VectorXd q = Eigen::VectorXd::Zero(tree.dof_count());
+        SolverOptions to = o;
+        to.orientation_tolerance = 1e-300;
+        to.max_restarts = 0;
+        const TreeSolveResult r = solve_tree(kind, tree, problem, to, tws, q);
+        const double ended = g_fake_now;  // as above
+        EXPECT_TRUE(r.summary.budget_exhausted) << "tree " << to_string(kind) << " tick " << tick << " budget " << budget;
+        EXPECT_LE(ended, bound) << "tree " << to_string(kind) << " tick " << tick << " budget " << budget;
+        foreseen += tws.deadline.foreseen;
+        ++solves;
+      }
+    }
+  }
+  // Most stop before the budget's end (those whose last reading before it is far enough from the bound
+  // stop there as before).
+  EXPECT_GE(foreseen, solves / 2);
 }
 
 // Item 6's CPU-time bound (1.1 x budget + 20 us) is a measured number, so it lives in a benchmark,

@@ -18,8 +18,9 @@
 //  - the time budget (on a fake clock advancing a fuzzed tick per reading, so every run is
 //    reproducible): the solve reads the clock no more after the reading that found the budget spent
 //    (it is checked before every iteration and in the long inner loops, and nothing after it reads
-//    the clock), budget_exhausted says exactly whether that reading came, and it comes only with
-//    max_iterations or unreachable (result.hpp);
+//    the clock; the reading finds it spent at the budget's end, or before it when the next stretch
+//    and the exit work would end past the bound: Deadline::foreseen), budget_exhausted says exactly
+//    whether that reading came, and it comes only with max_iterations or unreachable (result.hpp);
 //  - work per clock reading (issue 16, item 6): with a budget, no stretch of work between two clock
 //    readings, nor the exit work after the last, is longer than Deadline::stretch_bound of the
 //    problem's size (the kernels' charged flops: deterministic, so a finding replays exactly).
@@ -452,7 +453,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // The budget (and the cap): no reading after the one that found it spent, and the flag says so.
   if (ws.deadline.hit) {
     // (The reading before may be the arming one, at g_tick, when the budget is below its ulp.)
-    REQUIRE(clock_end >= ws.deadline.end_us && (clock_before_end < ws.deadline.end_us || clock_before_end == g_tick),
+    // It found it spent at the budget's end, or before it when the next stretch and the exit work,
+    // predicted from the gaps between readings, would have ended past the bound (Deadline::foreseen).
+    REQUIRE((clock_end >= ws.deadline.end_us || (ws.deadline.foreseen && clock_end == ws.deadline.last_reading_us)) &&
+                (clock_before_end < ws.deadline.end_us || clock_before_end == g_tick),
             "the clock was read again after the budget was found spent", clock_end, ws.deadline.end_us);
   } else {
     // (Again except the arming reading, which is no check: a solve may make no check at all.)

@@ -280,6 +280,9 @@ class HierarchicalStep {
     // polishing step, posture_gain 0): the chord step after it can then take the posture step.
     const bool posture = served == levels_.count && !problem_.posture.empty();
     for (int pass = 0; pass <= kLimitPasses; ++pass) {
+      // An active-set pass repeats the Gram product and the factorisations: the budget is read
+      // before it (issue 16, item 6); spent, there is no step (the caller stops).
+      if (pass > 0 && ws_.deadline.spent()) return false;
       auto M = ws_.row_square.topLeftCorner(rows_, rows_);
       gram(M);  // of J as the limits leave it (correct() and chord() reuse it: the same J)
       factor(mu, posture);
@@ -754,6 +757,9 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       return better(t, t_posture, current, current_posture, *met_cost);
     };
     bool trial_ok = chorded || model.compute(params, mu, step_posture_gain, served);
+    // Between the step's factorisations and its trial (an FK pass and the measure): a budget spent
+    // there leaves the step untaken and the pose as it was (issue 16, item 6).
+    if (ws.deadline.hit || (!chorded && trial_ok && ws.deadline.spent())) break;
     TreeErrors trial;
     double trial_posture = 0.0;
     if (trial_ok) {
