@@ -109,7 +109,7 @@ Chain random_chain(Rng& r, Shape shape, int n) {
     const bool ball = shape == Shape::kBallChain || (shape == Shape::kMixedLimited && coin(r, 0.4));
     j.type = ball ? JointType::kBall : JointType::kHinge;
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, bone, 0);
-    j.hinge_axis = i % 2 == 0 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0);
+    j.axis = i % 2 == 0 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0);
     if (shape == Shape::kMixedLimited || coin(r, 0.2)) {
       if (ball) {
         j.limits.has_cone_limit = true;

@@ -73,7 +73,7 @@ Chain make_hinge_chain(int n, bool planar = false, double link = 1.0) {
   for (int i = 0; i < n; ++i) {
     ikchain::JointDesc j;
     j.type = ikchain::JointType::kHinge;
-    j.hinge_axis = (planar || i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.axis = (planar || i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
     b.add_joint(j);
   }
@@ -481,7 +481,7 @@ Chain make_limited_arm(const LimitedArm& arm) {
   for (int i = 0; i < n; ++i) {
     ikchain::JointDesc j;
     j.type = ikchain::JointType::kHinge;
-    j.hinge_axis = arm.axes[i] == 'y' ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    j.axis = arm.axes[i] == 'y' ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, arm.links[i - 1], 0);
     j.limits.has_hinge_limit = true;
     j.limits.hinge_min = arm.lower[i];

@@ -14,7 +14,7 @@ namespace bench {
 inline JointDesc hinge_joint(const glm::dvec3& axis, const glm::dvec3& offset) {
   JointDesc j;
   j.type = JointType::kHinge;
-  j.hinge_axis = axis;
+  j.axis = axis;
   j.offset_translation = offset;
   return j;
 }
@@ -32,7 +32,7 @@ inline JointDesc hinge_joint(const glm::dvec3& axis, const glm::dvec3& offset, d
 inline JointDesc slide_joint(const glm::dvec3& axis, const glm::dvec3& offset, double min, double max) {
   JointDesc j;
   j.type = JointType::kPrismatic;
-  j.hinge_axis = axis;
+  j.axis = axis;
   j.offset_translation = offset;
   j.limits.has_slide_limit = true;
   j.limits.slide_min = min;

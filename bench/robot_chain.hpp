@@ -6,7 +6,7 @@
 // tests/robots/.
 //
 // URDF -> ikchain: joint i's origin (xyz, then rotation) is offset_translation[i] (in the parent
-// joint's frame) and rest_rotation[i]; its axis in the joint frame is hinge_axis[i] (chain.hpp's
+// joint's frame) and rest_rotation[i]; its axis in the joint frame is axis[i] (chain.hpp's
 // convention: the offset before the rotation, both before the joint's own motion). A prismatic
 // joint slides its successors along the axis, as URDF's child frame does. The fixed joints after the
 // last moving one are the tip (tool) frame.
@@ -134,7 +134,7 @@ inline ikchain::Message build_ikchain(const RobotDescription& robot, ikchain::Ch
     j.type = rj.prismatic() ? ikchain::JointType::kPrismatic : ikchain::JointType::kHinge;
     j.offset_translation = rj.origin_translation;
     j.rest_rotation = rj.origin_rotation;
-    j.hinge_axis = rj.axis;
+    j.axis = rj.axis;
     if (rj.limited() && rj.prismatic()) {
       j.limits.has_slide_limit = true;
       j.limits.slide_min = rj.lower;

@@ -5,7 +5,7 @@
 //   o_i = o_{i-1} + Q_{i-1} * offset_translation[i]          (o_{-1} = 0, Q_{-1} = identity)
 //   Q_i = Q_{i-1} * rest_rotation[i] * R_i(params)
 // with R_i = exp(r) for a ball joint (r: rotation vector, 3 params, radians) and
-// R_i = angle_axis(theta, hinge_axis) for a hinge (1 param, radians). The tip (end effector) is
+// R_i = angle_axis(theta, axis) for a hinge (1 param, radians). The tip (end effector) is
 //   tip = o_{n-1} + Q_{n-1} * tip_offset,   tip frame orientation = Q_{n-1} * tip_rotation
 // (the tool frame: a hand, a gripper, a barrel; identity by default).
 // params = 0 is the rest pose. Bone i spans o_i -> o_{i+1} (or -> tip for the last joint).
@@ -42,7 +42,7 @@ struct JointDesc {
   JointType type = JointType::kBall;
   glm::dvec3 offset_translation{0.0};        // from the parent joint's frame (or base), chain units (m)
   glm::dquat rest_rotation{1.0, 0.0, 0.0, 0.0};  // from the parent frame, applied before the joint's motion
-  glm::dvec3 hinge_axis{0.0, 0.0, 1.0};      // hinge: rotation axis, prismatic: slide axis, in joint space (after rest_rotation)
+  glm::dvec3 axis{0.0, 0.0, 1.0};            // hinge: rotation axis, prismatic: slide axis, in joint space (after rest_rotation)
   JointLimits limits;
 };
 
@@ -60,7 +60,7 @@ struct BuildError {
 // the axis its type does not use set to the default), or names the bad field. Chains and trees
 // validate joints with it, each naming the offset and axis fields as its own struct does.
 BuildError normalize_joint(int index, const JointDesc& joint, JointDesc& out,
-                           const char* offset_name = "offset_translation", const char* axis_name = "hinge_axis");
+                           const char* offset_name = "offset_translation", const char* axis_name = "axis");
 
 class Chain;
 
@@ -78,7 +78,9 @@ class ChainBuilder {
 
   // Validates every field and fills `out`. On failure `out` is left invalid and the returned error
   // names the joint and field (joint 2, "limits.hinge_min", "joint 2: hinge_min (1.5) > hinge_max (0.5)").
-  BuildError build(Chain& out) const;
+  // `axis_name` is what the error calls JointDesc::axis (field and message), for a caller whose
+  // users set it under another name (Godot's IKChainJoint.hinge_axis).
+  BuildError build(Chain& out, const char* axis_name = "axis") const;
 
  private:
   std::vector<JointDesc> joints_;
@@ -101,11 +103,11 @@ class Chain {
   const glm::dquat& rest_rotation(int i) const { return rest_rotations_[i]; }
   // True when rest_rotation(i) is exactly the identity (FK skips the product).
   bool rest_is_identity(int i) const { return joints_[i].rest_identity != 0; }
-  const glm::dvec3& hinge_axis(int i) const { return joints_[i].hinge_axis; }
+  const glm::dvec3& axis(int i) const { return joints_[i].axis; }
   // Direction codes (quat_ops::Direction: along x / y / z / general) of offset_translation(i),
-  // hinge_axis(i) and tip_offset(), for FK's sparse fast paths.
+  // axis(i) and tip_offset(), for FK's sparse fast paths.
   uint8_t offset_direction(int i) const { return joints_[i].offset_direction; }
-  uint8_t hinge_axis_direction(int i) const { return joints_[i].hinge_axis_direction; }
+  uint8_t axis_direction(int i) const { return joints_[i].axis_direction; }
   uint8_t tip_direction() const { return tip_direction_; }
   // True when every joint is a hinge (the Jacobian solvers' step needs no rotation-vector algebra).
   bool all_hinges() const { return all_hinges_; }
@@ -150,12 +152,12 @@ class Chain {
   // the FK loops keep one base pointer instead of spilling seven).
   struct JointRecord {
     glm::dvec3 offset_translation{0.0};
-    glm::dvec3 hinge_axis{0.0, 0.0, 1.0};
+    glm::dvec3 axis{0.0, 0.0, 1.0};
     int dof_offset = 0;
     uint8_t type = 0;
     uint8_t rest_identity = 0;
     uint8_t offset_direction = 0;
-    uint8_t hinge_axis_direction = 0;
+    uint8_t axis_direction = 0;
   };
   std::vector<JointRecord> joints_;
   std::vector<glm::dquat> rest_rotations_;

@@ -19,8 +19,8 @@ namespace ikchain {
 
 enum class JointType : uint8_t {
   kBall = 0,   // 3 rotational DOF, params: rotation vector (radians)
-  kHinge = 1,  // 1 rotational DOF about hinge_axis, param: angle (radians)
-  // 1 translational DOF: the joint slides along hinge_axis (joint space) by its param (m), moving
+  kHinge = 1,  // 1 rotational DOF about JointDesc::axis, param: angle (radians)
+  // 1 translational DOF: the joint slides along JointDesc::axis (joint space) by its param (m), moving
   // every later joint and the tip; its frame does not turn. Needs a slide range: has_slide_limit
   // with slide_min / slide_max in metres (the reach bounds need it). Pursued by the Jacobian
   // solvers and BFGS; CCD, FABRIK and two-bone turn joints only and reject such chains.
@@ -53,7 +53,7 @@ struct JointTraits {
   const char* name;       // "ball", "hinge", "prismatic"
   int dof_count;          // params per joint: 3 (a rotation vector) or 1 (an angle or a slide)
   bool turns;             // moves its frame's orientation (ball, hinge); a prismatic joint slides instead
-  bool uses_axis;         // reads JointDesc::hinge_axis (hinge: rotation axis, prismatic: slide direction)
+  bool uses_axis;         // reads JointDesc::axis (hinge: rotation axis, prismatic: slide direction)
   bool cone_twist_limits; // limited by cone_angle / twist range (ball), else by a range on its one param
   const char* param_unit; // of its params: "rad" or "m"
 };

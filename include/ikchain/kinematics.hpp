@@ -23,7 +23,7 @@ inline glm::dquat joint_motion(const Chain& chain, int joint, const double* para
   if (chain.joint_type(joint) == JointType::kHinge) {
     double s, c;
     so3::fast_sincos(0.5 * p[0], s, c);
-    const glm::dvec3& a = chain.hinge_axis(joint);  // unit length (ChainBuilder)
+    const glm::dvec3& a = chain.axis(joint);  // unit length (ChainBuilder)
     return glm::dquat(c, s * a.x, s * a.y, s * a.z);
   }
   return so3::exp(glm::dvec3(p[0], p[1], p[2]));

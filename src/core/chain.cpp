@@ -45,7 +45,7 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
   // The axis a joint type does not use is stored as its default, so the chain holds no NaN.
   glm::dvec3 axis(0.0, 0.0, 1.0);
   if (traits.uses_axis) {
-    axis = j.hinge_axis;
+    axis = j.axis;
     const double len = scaled_length(axis);
     if (!std::isfinite(len) || len < 1e-9)
       return fail(axis_name, traits.turns ? Message::format("%s must be a finite non-zero vector", axis_name)
@@ -88,7 +88,7 @@ BuildError normalize_joint(int i, const JointDesc& j, JointDesc& out, const char
   }
   out = j;
   out.rest_rotation = glm::normalize(j.rest_rotation / rest_len);
-  out.hinge_axis = axis;
+  out.axis = axis;
   out.limits = l;
   return BuildError();
 }
@@ -122,7 +122,7 @@ void ChainBuilder::clear() {
 
 bool Chain::has_limits(int i) const { return has_joint_limits(joint_type(i), limits_[i]); }
 
-BuildError ChainBuilder::build(Chain& out) const {
+BuildError ChainBuilder::build(Chain& out, const char* axis_name) const {
   out = Chain();
   // A problem of the whole chain, not of one joint.
   auto chain_error = [](const char* field, const Message& reason) {
@@ -151,10 +151,10 @@ BuildError ChainBuilder::build(Chain& out) const {
   int dofs = 0;
   for (int i = 0; i < n; ++i) {
     JointDesc j;
-    const BuildError error = normalize_joint(i, joints_[i], j);
+    const BuildError error = normalize_joint(i, joints_[i], j, "offset_translation", axis_name);
     if (!error.ok()) return error;
     const JointLimits& l = j.limits;
-    const glm::dvec3& axis = j.hinge_axis;
+    const glm::dvec3& axis = j.axis;
     Chain::JointRecord& rec = c.joints_[i];
     rec.type = static_cast<uint8_t>(j.type);
     rec.dof_offset = dofs;
@@ -163,9 +163,9 @@ BuildError ChainBuilder::build(Chain& out) const {
     c.rest_rotations_[i] = j.rest_rotation;
     const glm::dquat& r = c.rest_rotations_[i];
     rec.rest_identity = (r.w == 1.0 && r.x == 0.0 && r.y == 0.0 && r.z == 0.0) ? 1 : 0;
-    rec.hinge_axis = axis;
+    rec.axis = axis;
     rec.offset_direction = quat_ops::direction_code(j.offset_translation);
-    rec.hinge_axis_direction = quat_ops::direction_code(axis);
+    rec.axis_direction = quat_ops::direction_code(axis);
     c.limits_[i] = l;
   }
   c.dof_count_ = dofs;

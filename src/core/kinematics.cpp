@@ -22,7 +22,7 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
     if (chain.joint_type(i) == JointType::kHinge) {
       double s, c;
       so3::fast_sincos(0.5 * params[chain.dof_offset(i)], s, c);
-      orientation = multiply_axis_angle(pre, chain.hinge_axis(i), Direction(chain.hinge_axis_direction(i)), c, s);
+      orientation = multiply_axis_angle(pre, chain.axis(i), Direction(chain.axis_direction(i)), c, s);
     } else if (chain.joint_type(i) == JointType::kPrismatic) {
       // The slide moves the joints after this one (o_i itself stays: only joints before effector
       // k move it, chain.hpp).
@@ -30,7 +30,7 @@ void forward_kinematics(const Chain& chain, const double* params, Workspace& ws)
       ws.joint_origins[i] = origin;
       ws.joint_pre_rotations[i] = to_glm(pre);
       ws.joint_orientations[i] = to_glm(orientation);
-      origin += rotate(pre, chain.hinge_axis(i) * params[chain.dof_offset(i)]);
+      origin += rotate(pre, chain.axis(i) * params[chain.dof_offset(i)]);
       continue;
     } else {
       orientation = multiply(pre, from_glm(joint_motion(chain, i, params)));
@@ -77,7 +77,7 @@ void compute_dof_axes(const Chain& chain, const double* params, Workspace& ws) {
     const int o = chain.dof_offset(i);
     const glm::dquat& pre = ws.joint_pre_rotations[i];
     if (is_one_dof(chain.joint_type(i))) {  // hinge: rotation axis, prismatic: slide direction
-      ws.dof_axes[o] = pre * chain.hinge_axis(i);
+      ws.dof_axes[o] = pre * chain.axis(i);
     } else {
       const glm::dmat3 jl = so3::left_jacobian(glm::dvec3(params[o], params[o + 1], params[o + 2]));
       for (int k = 0; k < 3; ++k) ws.dof_axes[o + k] = pre * jl[k];

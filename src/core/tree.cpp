@@ -82,7 +82,7 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     as_joint.type = d.type;
     as_joint.offset_translation = d.offset_in_parent;
     as_joint.rest_rotation = d.rest_rotation;
-    as_joint.hinge_axis = d.axis;
+    as_joint.axis = d.axis;
     as_joint.limits = d.limits;
     JointDesc normal;
     const BuildError error = normalize_joint(i, as_joint, normal, "offset_in_parent", "axis");
@@ -95,7 +95,7 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     r.type = normal.type;
     r.offset_in_parent = normal.offset_translation;
     r.rest_rotation = normal.rest_rotation;
-    r.axis = normal.hinge_axis;
+    r.axis = normal.axis;
     r.limits = normal.limits;
     r.motion_cost = d.motion_cost;
     r.has_limits = has_joint_limits(d.type, r.limits);
@@ -167,7 +167,7 @@ TreeBuildError tree_from_chain(const Chain& chain, Tree& out) {
     d.type = chain.joint_type(i);
     d.offset_in_parent = chain.offset_translation(i);
     d.rest_rotation = chain.rest_rotation(i);
-    d.axis = chain.hinge_axis(i);
+    d.axis = chain.axis(i);
     d.limits = chain.limits(i);
     b.add_joint(d);
   }

@@ -143,7 +143,7 @@ JointDesc core_joint_of(const JointSettings& s) {
   JointDesc j;
   j.type = s.type;
   if (s.type == JointType::kHinge) {
-    j.hinge_axis = s.hinge_axis_in_bone;
+    j.axis = s.hinge_axis_in_bone;
     if (s.hinge_limit_enabled) {
       j.limits.has_hinge_limit = true;
       j.limits.hinge_min = s.hinge_min;
@@ -338,7 +338,8 @@ Message SkeletonChain::build_from(const SkeletonChainDesc& desc) {
     builder.add_joint(joints[size_t(i)]);
   }
   builder.set_tip_offset(tip_offset_);
-  if (const BuildError e = builder.build(chain_); !e.ok()) {
+  // The core's JointDesc::axis is IKChainJoint.hinge_axis to the user: errors name the property.
+  if (const BuildError e = builder.build(chain_, "hinge_axis"); !e.ok()) {
     // The builder names a joint by its index (joint 1, "hinge_min (1.5) > hinge_max (0.5)"); the
     // user knows it by its bone, and sets its limits in that bone's IKChainJoint.
     if (e.joint >= 0 && e.joint < n)
@@ -425,7 +426,7 @@ Message SkeletonChain::scale_warning() const {
 void SkeletonChain::params_from_rotations(Span<const glm::dquat> local_rotations, double* params) const {
   const int n = std::min(joint_count_, local_rotations.size);
   for (int i = 0; i < n; ++i)
-    joint_params_from_rotation(chain_.joint_type(i), chain_.rest_rotation(i), chain_.hinge_axis(i), chain_.limits(i),
+    joint_params_from_rotation(chain_.joint_type(i), chain_.rest_rotation(i), chain_.axis(i), chain_.limits(i),
                                local_rotations[i], params + chain_.dof_offset(i));
 }
 

@@ -135,7 +135,7 @@ Message SkeletonTree::build_tree() {
     // The root's offset is where the tree was built (see point_in_tree()).
     j.offset_in_parent = i == 0 ? (valid_ ? built_root_position_ : b.pose.position) : parent_scale * b.pose.position;
     j.rest_rotation = rotation_of_basis(b.rest_basis_in_parent);
-    j.axis = core.hinge_axis;
+    j.axis = core.axis;
     j.limits = core.limits;
     j.motion_cost = b.joint.motion_cost;
     builder.add_joint(j);

@@ -43,7 +43,7 @@ inline Message make_hinge_chain(int n, bool planar, double link, Chain& out) {
   for (int i = 0; i < n; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = (planar || i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.axis = (planar || i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
     b.add_joint(j);
   }

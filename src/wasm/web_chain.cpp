@@ -12,7 +12,7 @@ void WebChain::add_hinge(double ox, double oy, double oz, double ax, double ay, 
   JointDesc j;
   j.type = JointType::kHinge;
   j.offset_translation = glm::dvec3(ox, oy, oz);
-  j.hinge_axis = glm::dvec3(ax, ay, az);
+  j.axis = glm::dvec3(ax, ay, az);
   set_hinge_limits(j.limits, limited, min_angle, max_angle);
   builder_.add_joint(j);
 }
@@ -51,7 +51,7 @@ std::string WebChain::build_bench_chain(int joints, bool planar) {
   const Message m = bench_cases::make_hinge_chain(joints, planar, 1.0, probe);
   if (!m.empty()) return m.c_str();
   for (int i = 0; i < joints; ++i) {
-    const glm::dvec3 axis = probe.hinge_axis(i);
+    const glm::dvec3 axis = probe.axis(i);
     const glm::dvec3 offset = probe.offset_translation(i);
     add_hinge(offset.x, offset.y, offset.z, axis.x, axis.y, axis.z, false, 0.0, 0.0);
   }

@@ -76,7 +76,7 @@ TEST(DLS, EffectorSecondDerivativeMatchesFiniteDifference) {
       JointDesc j;
       j.type = JointType::kHinge;
       j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0.2 * u(rng), 1.0, 0.2 * u(rng));
-      j.hinge_axis = trial % 2 ? glm::dvec3(u(rng), u(rng), u(rng)) : glm::dvec3(0, 0, 1);
+      j.axis = trial % 2 ? glm::dvec3(u(rng), u(rng), u(rng)) : glm::dvec3(0, 0, 1);
       j.rest_rotation = glm::angleAxis(0.5 * u(rng), glm::normalize(glm::dvec3(u(rng), u(rng), 1.0)));
       b.add_joint(j);
     }

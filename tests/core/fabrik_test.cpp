@@ -125,7 +125,7 @@ TEST(FABRIK, FullPoseWithToolFrameOnTheLastHinge) {
     d.type = JointType::kHinge;
     d.offset_translation = j.offset;
     d.rest_rotation = glm::angleAxis(j.turn_about_x, glm::dvec3(1.0, 0.0, 0.0));
-    d.hinge_axis = glm::dvec3(0.0, 0.0, 1.0);
+    d.axis = glm::dvec3(0.0, 0.0, 1.0);
     b.add_joint(d);
   }
   b.set_tip_frame(glm::dvec3(0.0), glm::angleAxis(0.9, glm::normalize(glm::dvec3(1.0, -2.0, 0.5))));

@@ -135,7 +135,7 @@ Chain limited_root_chain() {
   for (int i = 0; i < 3; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
     if (i == 0) {
       j.limits.has_hinge_limit = true;
@@ -271,13 +271,13 @@ TEST(FuzzFindings, HugeTargetsAndWeightsRejected) {
   EXPECT_TRUE(q.allFinite());
 }
 
-// A ball joint's hinge_axis (and a hinge's twist_axis) was stored as given, NaN included: a chain
+// A ball joint's axis (and a hinge's twist_axis) was stored as given, NaN included: a chain
 // that built held non-finite data. The unused axis is stored as its default.
 TEST(FuzzFindings, UnusedAxesStoredAsDefaults) {
   ChainBuilder b;
   JointDesc ball;
   ball.type = JointType::kBall;
-  ball.hinge_axis = glm::dvec3(kNaN, 0, 0);
+  ball.axis = glm::dvec3(kNaN, 0, 0);
   JointDesc hinge;
   hinge.type = JointType::kHinge;
   hinge.offset_translation = glm::dvec3(0, 1, 0);
@@ -285,16 +285,16 @@ TEST(FuzzFindings, UnusedAxesStoredAsDefaults) {
   b.add_joint(ball).add_joint(hinge).set_tip_offset(glm::dvec3(0, 1, 0));
   Chain chain;
   ASSERT_TRUE(b.build(chain).ok());
-  EXPECT_TRUE(so3::finite(chain.hinge_axis(0)));
+  EXPECT_TRUE(so3::finite(chain.axis(0)));
   EXPECT_TRUE(so3::finite(chain.limits(1).twist_axis));
   // A huge but finite axis is a direction: normalised, not rejected as "infinite".
   ChainBuilder h;
   JointDesc big;
   big.type = JointType::kHinge;
-  big.hinge_axis = glm::dvec3(0, 0, 1e300);
+  big.axis = glm::dvec3(0, 0, 1e300);
   h.add_joint(big).set_tip_offset(glm::dvec3(0, 1, 0));
   ASSERT_TRUE(h.build(chain).ok());
-  EXPECT_EQ(chain.hinge_axis(0), glm::dvec3(0, 0, 1));
+  EXPECT_EQ(chain.axis(0), glm::dvec3(0, 0, 1));
 }
 
 // pinv_max_halvings was unbounded: 1e7 took 79 s for one solve.
@@ -352,7 +352,7 @@ AimAtReproducer aim_at_reproducer(JointType type) {
   AimAtReproducer r;
   JointDesc j;
   j.type = type;
-  j.hinge_axis = glm::dvec3(0, 0, 1);
+  j.axis = glm::dvec3(0, 0, 1);
   if (type == JointType::kBall) {  // BFGS alone
     r.tip_offset = glm::dvec3(0, 1, 0);
     r.goal = Goal::aim_at(glm::dvec3(-0.69588683150423758, 0.26852934487031521, 0.66605818715973486),

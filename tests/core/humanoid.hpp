@@ -92,7 +92,7 @@ inline Chain chain(const std::vector<std::string>& joint_bones, const std::strin
     j.rest_rotation = glm::normalize(b.rotation);
     if (hinge_knee && i > 0) {
       j.type = JointType::kHinge;
-      j.hinge_axis = glm::dvec3(1, 0, 0);
+      j.axis = glm::dvec3(1, 0, 0);
       if (hinge_min < hinge_max) {
         j.limits.has_hinge_limit = true;
         j.limits.hinge_min = hinge_min;

@@ -25,7 +25,7 @@ Chain arm_with_tip_rotation(const glm::dquat& tip_rotation, Message* message = n
   for (int i = 0; i < 3; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = i == 1 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    j.axis = i == 1 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 0.5, 0);
     b.add_joint(j);
   }
@@ -137,7 +137,7 @@ Chain limited_arm() {
   for (int i = 0; i < 7; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = axes[i];
+    j.axis = axes[i];
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 0.3, 0);
     j.limits.has_hinge_limit = true;
     j.limits.hinge_min = -0.3;
@@ -725,7 +725,7 @@ Chain spine_arm_with_cones() {
     }
     if (i == 5) {
       j.type = JointType::kHinge;
-      j.hinge_axis = glm::dvec3(1, 0, 0);
+      j.axis = glm::dvec3(1, 0, 0);
       j.limits.has_hinge_limit = true;
       j.limits.hinge_min = 0.0;
       j.limits.hinge_max = 2.6;

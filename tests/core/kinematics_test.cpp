@@ -17,7 +17,7 @@ Chain mixed_chain() {
   JointDesc hinge;
   hinge.type = JointType::kHinge;
   hinge.offset_translation = glm::dvec3(0, 1.2, 0);
-  hinge.hinge_axis = glm::dvec3(1, 0, 0);
+  hinge.axis = glm::dvec3(1, 0, 0);
   b.add_joint(hinge);
   JointDesc ball2 = ball;
   ball2.offset_translation = glm::dvec3(0.0, 0.8, 0.1);

@@ -108,7 +108,7 @@ TEST(Prismatic, NeedsASlideRange) {
   ChainBuilder b;
   JointDesc slide;
   slide.type = JointType::kPrismatic;
-  slide.hinge_axis = glm::dvec3(0, 1, 0);
+  slide.axis = glm::dvec3(0, 1, 0);
   b.add_joint(slide).set_tip_offset(glm::dvec3(0, 1, 0));
   Chain c;
   const Message m = b.build(c).message;

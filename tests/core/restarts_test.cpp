@@ -19,7 +19,7 @@ Chain limited_arm7() {
   for (int i = 0; i < 7; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = axes[i] == 'y' ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    j.axis = axes[i] == 'y' ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, links[i - 1], 0);
     j.limits.has_hinge_limit = true;
     j.limits.hinge_min = lower[i];
@@ -157,7 +157,7 @@ TEST(Restarts, WrapAHingeStoppedOnAFullTurnBound) {
   ChainBuilder b;
   JointDesc j;
   j.type = JointType::kHinge;
-  j.hinge_axis = glm::dvec3(0, 0, 1);
+  j.axis = glm::dvec3(0, 0, 1);
   j.limits.has_hinge_limit = true;
   j.limits.hinge_min = -so3::kPi;
   j.limits.hinge_max = so3::kPi;

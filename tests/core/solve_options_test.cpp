@@ -128,7 +128,7 @@ Chain leg(bool hinge_root = false, bool limited_hip = false) {
   JointDesc hip;
   if (hinge_root) {
     hip.type = JointType::kHinge;
-    hip.hinge_axis = glm::dvec3(1, 0, 0);
+    hip.axis = glm::dvec3(1, 0, 0);
   }
   if (limited_hip) {
     // Hardly any twist about the thigh: the swivel (about the hip -> foot axis, close to the thigh)
@@ -141,7 +141,7 @@ Chain leg(bool hinge_root = false, bool limited_hip = false) {
   b.add_joint(hip);
   JointDesc knee;
   knee.type = JointType::kHinge;
-  knee.hinge_axis = glm::dvec3(1, 0, 0);
+  knee.axis = glm::dvec3(1, 0, 0);
   knee.offset_translation = glm::dvec3(0, -1, 0);
   b.add_joint(knee);
   JointDesc ankle;

@@ -93,7 +93,7 @@ inline Chain limited_chain(int n, LimitedJoints joints, const LimitRanges& r, Li
     j.type = ball ? JointType::kBall : JointType::kHinge;
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
     if (!ball || draws == LimitDraws::kEveryField) {
-      j.hinge_axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0);
+      j.axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0);
       j.limits.has_hinge_limit = !ball;
       j.limits.hinge_min = -r.hinge_base - r.hinge_spread * u(rng);
       j.limits.hinge_max = r.hinge_base + r.hinge_spread * u(rng);

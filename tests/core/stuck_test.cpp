@@ -72,13 +72,13 @@ TEST(Stuck, WrapAcrossBoundKeepsThePoseOnTheOtherSideOfTheWall) {
   ChainBuilder b;
   JointDesc full, part;
   full.type = part.type = JointType::kHinge;
-  full.hinge_axis = glm::dvec3(0, 0, 1);
+  full.axis = glm::dvec3(0, 0, 1);
   full.limits.has_hinge_limit = true;
   full.limits.hinge_min = -3.14159265359;  // a URDF's rounded pi, as the UR arms write it
   full.limits.hinge_max = 3.14159265359;
   part = full;
   part.offset_translation = glm::dvec3(0, 1, 0);
-  part.hinge_axis = glm::dvec3(1, 0, 0);
+  part.axis = glm::dvec3(1, 0, 0);
   part.limits.hinge_min = -2.0;
   part.limits.hinge_max = 2.5;
   b.add_joint(full).add_joint(part).set_tip_offset(glm::dvec3(0, 1, 0));
@@ -187,7 +187,7 @@ TEST(Stuck, StraightLegWithKneeOnItsLimitReachesWithoutRestarts) {
   JointDesc hip, knee;
   hip.type = JointType::kBall;
   knee.type = JointType::kHinge;
-  knee.hinge_axis = glm::dvec3(1, 0, 0);
+  knee.axis = glm::dvec3(1, 0, 0);
   knee.offset_translation = glm::dvec3(0, -0.45, 0);
   knee.limits.has_hinge_limit = true;
   knee.limits.hinge_min = -2.6;
@@ -222,7 +222,7 @@ TEST(Stuck, HingesPinnedOnTheirBoundsAreMovedOffThem) {
   for (int i = 0; i < 3; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = glm::dvec3(0, 0, 1);
+    j.axis = glm::dvec3(0, 0, 1);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
     j.limits.has_hinge_limit = true;
     j.limits.hinge_min = -2.5;

@@ -19,7 +19,7 @@ inline Chain make_hinge_chain(int n, double link = 1.0) {
   for (int i = 0; i < n; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+    j.axis = (i % 2 == 0) ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
     b.add_joint(j);
   }
@@ -38,7 +38,7 @@ inline Chain make_planar_limb(int n, double bend_max = 0.0) {
   for (int i = 0; i < n; ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
-    j.hinge_axis = glm::dvec3(0, 0, 1);
+    j.axis = glm::dvec3(0, 0, 1);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
     if (i > 0 && bend_max > 0.0) {
       j.limits.has_hinge_limit = true;
@@ -98,7 +98,7 @@ inline glm::dmat4 hinge_tool_frame_by_matrices(const Chain& chain, const double*
   glm::dmat4 m(1.0);
   for (int j = 0; j < chain.joint_count(); ++j)
     m = m * glm::translate(glm::dmat4(1.0), chain.offset_translation(j)) * glm::mat4_cast(chain.rest_rotation(j)) *
-        glm::rotate(glm::dmat4(1.0), q[chain.dof_offset(j)], chain.hinge_axis(j));
+        glm::rotate(glm::dmat4(1.0), q[chain.dof_offset(j)], chain.axis(j));
   return m * glm::translate(glm::dmat4(1.0), chain.tip_offset()) * glm::mat4_cast(chain.tip_rotation());
 }
 

@@ -28,7 +28,7 @@ Chain arm(bool hinge_elbow, double l1 = 1.2, double l2 = 0.9, bool limit_elbow =
   JointDesc elbow;
   elbow.type = hinge_elbow ? JointType::kHinge : JointType::kBall;
   elbow.offset_translation = glm::dvec3(0, l1, 0);
-  elbow.hinge_axis = glm::dvec3(1, 0, 0);
+  elbow.axis = glm::dvec3(1, 0, 0);
   elbow.limits.has_hinge_limit = limit_elbow;
   elbow.limits.hinge_min = 0.0;
   elbow.limits.hinge_max = 1.5;

@@ -119,13 +119,13 @@ Pose reference_fk(const std::vector<JointDesc>& joints, const glm::dvec3& tip_of
     origin += q * j.offset_translation;
     q = q * unit(j.rest_rotation);
     if (j.type == JointType::kHinge) {
-      q = q * glm::angleAxis(params[o], unit(j.hinge_axis));
+      q = q * glm::angleAxis(params[o], unit(j.axis));
       o += 1;
     } else if (j.type == JointType::kPrismatic) {
       // The slide moves what comes after the joint, along its axis in the joint's frame.
       pose.origins.push_back(origin);
       pose.orientations.push_back(q);
-      origin += q * (unit(j.hinge_axis) * params[o]);
+      origin += q * (unit(j.axis) * params[o]);
       o += 1;
       continue;
     } else {
@@ -248,7 +248,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (d.ConsumeBool()) {
       j.rest_rotation = glm::dquat(pick_mostly(d, 2.0), pick_mostly(d, 2.0), pick_mostly(d, 2.0), pick_mostly(d, 2.0));
     }
-    if (d.ConsumeBool()) j.hinge_axis = pick_vec(d, 1.0);
+    if (d.ConsumeBool()) j.axis = pick_vec(d, 1.0);
     const uint8_t lim = d.ConsumeIntegral<uint8_t>();
     JointLimits& l = j.limits;
     if (lim & 1) {  // the one param's range: a hinge's angle, a slide's metres
@@ -297,7 +297,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       const glm::dquat& r = chain.rest_rotation(i);
       REQUIRE(all_finite(r) && std::abs(glm::length(r) - 1.0) < 1e-9, "rest_rotation not unit", i, glm::length(r));
       REQUIRE(all_finite(chain.rest_joint_origins()[i]), "rest joint origin", i);
-      REQUIRE(all_finite(chain.hinge_axis(i)), "hinge_axis", i);
+      REQUIRE(all_finite(chain.axis(i)), "axis", i);
       REQUIRE(all_finite(chain.limits(i).twist_axis), "twist_axis", i);
     }
     REQUIRE(all_finite(sum), "bone lengths sum", sum);
@@ -401,12 +401,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       const JointDesc& j = joints[i];
       const JointLimits& l = j.limits;
       std::fprintf(stderr,
-                   "  joint %d type %d offset (%.17g, %.17g, %.17g) rest (%.17g, %.17g, %.17g, %.17g) hinge_axis "
+                   "  joint %d type %d offset (%.17g, %.17g, %.17g) rest (%.17g, %.17g, %.17g, %.17g) axis "
                    "(%.17g, %.17g, %.17g)\n    hinge %d [%.17g, %.17g] slide %d [%.17g, %.17g] cone %d %.17g twist %d [%.17g, %.17g] "
                    "twist_axis (%.17g, %.17g, %.17g)\n",
                    i, static_cast<int>(j.type), j.offset_translation.x, j.offset_translation.y,
                    j.offset_translation.z, j.rest_rotation.w, j.rest_rotation.x, j.rest_rotation.y, j.rest_rotation.z,
-                   j.hinge_axis.x, j.hinge_axis.y, j.hinge_axis.z, l.has_hinge_limit, l.hinge_min, l.hinge_max,
+                   j.axis.x, j.axis.y, j.axis.z, l.has_hinge_limit, l.hinge_min, l.hinge_max,
                    l.has_slide_limit, l.slide_min, l.slide_max, l.has_cone_limit, l.cone_angle, l.has_twist_limit, l.twist_min, l.twist_max, l.twist_axis.x,
                    l.twist_axis.y, l.twist_axis.z);
     }

@@ -81,25 +81,13 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
   const double initial_mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
   double mu = initial_mu;
   double nu = 2.0;
-  stuck::StallRule stall(model.cost());
-  stuck::Escapes escapes(chain, goals, o, ws);
-  escapes.start_at(model.cost());
-  // Stuck at params: escape and start again there (true), or no escape left (false).
-  auto escape = [&]() {
-    if (!escapes.escape(params, model.cost())) return false;
-    model.evaluate(params);
-    model.accept();
-    model.linearize(params);
-    stall.reset(model.cost());
+  // After an escape the damping starts again.
+  stuck::JacobianLoop loop(chain, goals, o, ws, model, params, [&]() {
     mu = initial_mu;
     nu = 2.0;
-    return true;
-  };
-  auto singular_stationary = [&]() {
-    return stuck::is_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm(),
-                                stuck::kSingularStationary);
-  };
-  if (singular_stationary()) escape();
+  });
+  using stuck::Verdict;
+  loop.escape_if_stationary();
 
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
@@ -150,28 +138,25 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
         break;
       }
       const double gain = cost - trial_cost;
-      if (stall.stalled_after(trial_cost, o.stall_tolerance)) {
-        if (escape()) continue;
+      // A creep the limits hold, or a long one, escapes (DLS's steps do not follow the Newton
+      // flow into singular saddles as the pseudo-inverse's do).
+      const Verdict verdict = loop.after_accepted(trial_cost, stuck::Creeps::kStuckOrLong);
+      if (verdict == Verdict::kEscaped) continue;
+      if (verdict == Verdict::kStalled) {
         status.reason = TerminationReason::kStalled;
         break;
       }
-      if (stall.creeping() && escapes.creep_is_stuck(params)) {  // a creep the limits hold
-        if (escape()) continue;
-        status.reason = TerminationReason::kStalled;  // no escape left: it would creep on in vain
-        break;
-      }
-      if (escapes.creep_is_long(stall) && escape()) continue;  // a long creep: escaped while it can
       if (ws.deadline.spent()) break;  // before the next linearisation, as before the first
       model.linearize(params);
       const double rho = predicted > 0.0 ? gain / predicted : 0.0;
       const double r = 2.0 * rho - 1.0;
       mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - r * r * r), o.dls_min_damping);
       nu = 2.0;
-      if (singular_stationary()) escape();
+      loop.escape_if_stationary();
     } else {
       if (mu >= o.dls_max_damping) {
         // No acceptable step at any damping: stuck as surely as by the stall rule.
-        if (escape()) continue;
+        if (loop.escape()) continue;
         status.reason = TerminationReason::kStalled;
         break;
       }
@@ -180,8 +165,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
       nu *= 2.0;
     }
   }
-  status.escapes = escapes.used();
-  if (status.reason != TerminationReason::kConverged) escapes.restore_best(params, model.cost());
+  loop.finish(status);
   return status;
 }
 

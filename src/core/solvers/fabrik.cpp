@@ -41,7 +41,7 @@
 //    FABRIK's orientation extensions do it: an orientation goal T fixes the last joint's frame,
 //    F = T conj(tip_rotation) (the heaviest such goal wins), hence where the last joint must be,
 //    o_{n-1} = tip - F tip_offset, so the forward stage pins p_{n-1} there (after the tip). For a
-//    last hinge F also fixes its axis, F hinge_axis, which the frame before it carries: the forward
+//    last hinge F also fixes its axis, F axis(n-1), which the frame before it carries: the forward
 //    stage pins p_{n-2} on its circle about that axis (last_hinge_circle_pin), and the backward
 //    stage fits one more point, on the axis at axis_point_distance() from o_{n-1}, into every
 //    joint before it. Without them a tool frame on the last hinge's origin (tip_offset 0, the
@@ -107,7 +107,7 @@ double axis_point_distance(const Chain& chain) { return chain.total_length() / c
 glm::dvec3 last_hinge_circle_pin(const Chain& chain, const glm::dquat& last_frame, const glm::dvec3& last_origin,
                                  const glm::dvec3& old_point, const glm::dvec3& old_last_origin) {
   const int j = chain.joint_count() - 1;
-  const glm::dvec3 axis_local = chain.hinge_axis(j);
+  const glm::dvec3 axis_local = chain.axis(j);
   const glm::dvec3 u = glm::conjugate(chain.rest_rotation(j)) * chain.offset_translation(j);
   const double along = glm::dot(u, axis_local);
   const double radius = glm::length(u - axis_local * along);
@@ -253,7 +253,7 @@ SolverStatus solve_fabrik(const Chain& chain, Span<const Goal> goals, const Solv
   // and where the target frame wants it (the same offset along last_frame's axis).
   const double axis_distance = fit_last_axis ? axis_point_distance(chain) : 0.0;
   const glm::dvec3 desired_axis_offset =
-      fit_last_axis ? last_frame * chain.hinge_axis(n - 1) * axis_distance : glm::dvec3(0.0);
+      fit_last_axis ? last_frame * chain.axis(n - 1) * axis_distance : glm::dvec3(0.0);
   geometric::Tracked tracked[kMaxGoals];
   geometric::Progress progress(chain, goals, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;

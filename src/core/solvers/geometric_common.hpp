@@ -92,7 +92,7 @@ inline void set_ball_param(double* params, int o, const glm::dvec3& r) {
 
 // Base-frame axis of hinge j given the frame its motion happens in (pre_j = Q_{j-1} * rest_rotation_j).
 inline glm::dvec3 hinge_axis_in_base(const Chain& chain, int j, const glm::dquat& pre_j) {
-  return pre_j * chain.hinge_axis(j);
+  return pre_j * chain.axis(j);
 }
 
 // Turns a ball joint by the base-frame rotation `delta` (about the joint's origin): Q_j <- delta * Q_j,

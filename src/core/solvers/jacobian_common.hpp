@@ -93,15 +93,15 @@ class SinglePositionModel {
       const Quat pre = chain_.rest_is_identity(i) ? q : multiply(q, from_glm(chain_.rest_rotation(i)));
       const int o = chain_.dof_offset(i);
       if (chain_.joint_type(i) == JointType::kHinge) {
-        const glm::dvec3& axis = chain_.hinge_axis(i);
-        const Direction dir = Direction(chain_.hinge_axis_direction(i));
+        const glm::dvec3& axis = chain_.axis(i);
+        const Direction dir = Direction(chain_.axis_direction(i));
         double s, c;
         so3::fast_sincos(0.5 * params[o], s, c);
         q = multiply_axis_angle(pre, axis, dir, c, s);
         dof_axes[o] = rotate_coded(pre, axis, dir);
       } else if (chain_.joint_type(i) == JointType::kPrismatic) {  // as forward_kinematics
         q = pre;
-        dof_axes[o] = rotate(pre, chain_.hinge_axis(i));
+        dof_axes[o] = rotate(pre, chain_.axis(i));
         joint_origins[i] = origin;
         origin += dof_axes[o] * params[o];
         continue;

@@ -91,26 +91,12 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
   }
   model.linearize(params);
   double fraction = 1.0;  // the last accepted de / e
-  stuck::StallRule stall(model.cost());
-  stuck::Escapes escapes(chain, goals, o, ws);
-  escapes.start_at(model.cost());
+  // After an escape the full step is tried first again.
+  stuck::JacobianLoop loop(chain, goals, o, ws, model, params, [&]() { fraction = 1.0; });
+  using stuck::Verdict;
   // Clamped, the target is the best reach of a goal beyond it: being stuck there is no trap.
-  if (target_clamped) escapes.disable();
-  // Stuck at params: escape and start again there (true), or no escape left (false).
-  auto escape = [&]() {
-    if (!escapes.escape(params, model.cost())) return false;
-    model.evaluate(params);
-    model.accept();
-    model.linearize(params);
-    fraction = 1.0;
-    stall.reset(model.cost());
-    return true;
-  };
-  auto singular_stationary = [&]() {
-    return stuck::is_stationary(model.gradient_norm2(), model.jacobian_norm(), model.residual_norm(),
-                                stuck::kSingularStationary);
-  };
-  if (singular_stationary()) escape();
+  if (target_clamped) loop.escapes().disable();
+  loop.escape_if_stationary();
 
   status.reason = TerminationReason::kMaxIterations;
   for (int it = 1; it <= o.max_iterations; ++it) {
@@ -187,7 +173,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     const bool accepted = best_s > 0.0;
     if (!accepted && ws.deadline.hit) break;  // the time budget: kMaxIterations
     if (!accepted) {  // no halving decreases the cost: stuck
-      if (escape()) continue;
+      if (loop.escape()) continue;
       status.reason = TerminationReason::kStalled;
       break;
     }
@@ -205,20 +191,18 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
       status.reason = TerminationReason::kConverged;
       break;
     }
-    const bool stalled = stall.stalled_after(model.cost(), o.stall_tolerance);
-    if ((stalled || stall.creeping()) && escape()) continue;
-    // No escape left: stalled stops, and so does a creep the limits hold (it would creep on in
-    // vain); any other creep goes on, it is still progress.
-    if (stalled || (stall.creeping() && escapes.creep_is_stuck(params))) {
+    // Every creep escapes (the file comment's singular saddles).
+    const Verdict verdict = loop.after_accepted(model.cost(), stuck::Creeps::kEvery);
+    if (verdict == Verdict::kEscaped) continue;
+    if (verdict == Verdict::kStalled) {
       status.reason = TerminationReason::kStalled;
       break;
     }
     if (ws.deadline.spent()) break;  // before the next linearisation, as before the first
     model.linearize(params);
-    if (singular_stationary()) escape();
+    loop.escape_if_stationary();
   }
-  status.escapes = escapes.used();
-  if (status.reason != TerminationReason::kConverged) escapes.restore_best(params, model.cost());
+  loop.finish(status);
   return status;
 }
 

@@ -643,5 +643,81 @@ class Escapes {
   State state_ = kUnknown;
 };
 
+// ------------------------------------------------------------------------------------------------
+// Which creeps (StallRule::creeping) an accepted step escapes. kEvery: any (the pseudo-inverse,
+// whose halved steps follow the Newton flow into singular saddles; with no escape left only a creep
+// the limits hold stops the solve). kStuckOrLong: one the limits hold (Escapes::creep_is_stuck; no
+// escape left: stalled) or a long one (Escapes::creep_is_long; no escape left: it goes on).
+enum class Creeps { kEvery, kStuckOrLong };
+// What an accepted step leads to (JacobianLoop::after_accepted).
+enum class Verdict { kGoOn, kEscaped, kStalled };
+
+// The Jacobian solvers' loop around the rules above (DLS and the pseudo-inverse: dls.cpp,
+// jacobian_pinv.cpp): the stall rule and the escapes over one model (jacobian_common.hpp's
+// SinglePositionModel or GoalModel), the re-evaluation after an escape, the verdict after an
+// accepted step and the best pose at the end. Each solver keeps its own step; `restart` resets its
+// step state (DLS: the damping, the pseudo-inverse: the step fraction) after an escape. Holds
+// references only: allocates nothing.
+template <class Model, class Restart>
+class JacobianLoop {
+ public:
+  // The model is evaluated and linearised at params, the solve's start.
+  JacobianLoop(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
+               Model& model, double* params, Restart restart)
+      : options_(options), model_(model), params_(params), restart_(restart), stall_(model.cost()),
+        escapes_(chain, goals, options, ws) {
+    escapes_.start_at(model.cost());
+  }
+
+  Escapes& escapes() { return escapes_; }
+
+  // Stuck at params: escape and start again there (true), or no escape left (false).
+  bool escape() {
+    if (!escapes_.escape(params_, model_.cost())) return false;
+    model_.evaluate(params_);
+    model_.accept();
+    model_.linearize(params_);
+    restart_();
+    stall_.reset(model_.cost());
+    return true;
+  }
+
+  // At a singular stationary point with error left (kSingularStationary; every step is zero
+  // there): escapes while it can. Needs the model linearised at params.
+  void escape_if_stationary() {
+    if (is_stationary(model_.gradient_norm2(), model_.jacobian_norm(), model_.residual_norm(), kSingularStationary))
+      escape();
+  }
+
+  // After a step was accepted into params, at `cost`: the stall rule and the creeps (see Creeps).
+  // kEscaped: params moved, the model is evaluated and linearised there; kStalled: stuck, no
+  // escape left; kGoOn: the solver goes on from the accepted step.
+  Verdict after_accepted(double cost, Creeps creeps) {
+    if (stall_.stalled_after(cost, options_.stall_tolerance)) return escape() ? Verdict::kEscaped : Verdict::kStalled;
+    if (!stall_.creeping()) return Verdict::kGoOn;  // creep_is_long implies creeping too
+    if (creeps == Creeps::kEvery) {
+      if (escape()) return Verdict::kEscaped;
+      // No escape left: a creep the limits hold would creep on in vain; any other is still progress.
+      return escapes_.creep_is_stuck(params_) ? Verdict::kStalled : Verdict::kGoOn;
+    }
+    if (escapes_.creep_is_stuck(params_)) return escape() ? Verdict::kEscaped : Verdict::kStalled;
+    return escapes_.creep_is_long(stall_) && escape() ? Verdict::kEscaped : Verdict::kGoOn;
+  }
+
+  // The solve's end: the escapes used, and params back at the best pose seen unless it converged.
+  void finish(SolverStatus& status) {
+    status.escapes = escapes_.used();
+    if (status.reason != TerminationReason::kConverged) escapes_.restore_best(params_, model_.cost());
+  }
+
+ private:
+  const SolverOptions& options_;
+  Model& model_;
+  double* params_;
+  Restart restart_;
+  StallRule stall_;
+  Escapes escapes_;
+};
+
 }  // namespace stuck
 }  // namespace ikchain
