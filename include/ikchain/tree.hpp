@@ -75,8 +75,9 @@ class TreeBuilder {
   void clear();
   int joint_count() const { return static_cast<int>(joints_.size()); }
 
-  // Validates every field and fills `out`; on failure `out` is left invalid.
-  TreeBuildError build(Tree& out) const;
+  // Validates every field and fills `out`; on failure `out` is left invalid. `axis_name` is what
+  // the error calls TreeJointDesc::axis, as for ChainBuilder::build (Godot's IKChainJoint.hinge_axis).
+  TreeBuildError build(Tree& out, const char* axis_name = "axis") const;
 
  private:
   std::vector<TreeJointDesc> joints_;

@@ -56,7 +56,7 @@ void TreeBuilder::clear() {
   translation_motion_cost_ = 1.0;
 }
 
-TreeBuildError TreeBuilder::build(Tree& out) const {
+TreeBuildError TreeBuilder::build(Tree& out, const char* axis_name) const {
   out = Tree();
   const int n = static_cast<int>(joints_.size());
   if (n == 0) return joint_error(-1, "joints", Message::format("tree has 0 joints: add at least one joint"));
@@ -85,7 +85,7 @@ TreeBuildError TreeBuilder::build(Tree& out) const {
     as_joint.axis = d.axis;
     as_joint.limits = d.limits;
     JointDesc normal;
-    const BuildError error = normalize_joint(i, as_joint, normal, "offset_in_parent", "axis");
+    const BuildError error = normalize_joint(i, as_joint, normal, "offset_in_parent", axis_name);
     if (!error.ok()) return joint_error(i, error.field, error.reason);
     if (!(d.motion_cost > 0.0 && d.motion_cost <= kMaxWeight))
       return joint_error(i, "motion_cost",

@@ -145,7 +145,7 @@ Message SkeletonTree::build_tree() {
     builder.add_effector({e, glm::dvec3(0.0), glm::dquat(1.0, 0.0, 0.0, 0.0)});
   }
   builder.set_floating_root(desc_.floating_root, desc_.root_translation_cost);
-  const TreeBuildError error = builder.build(tree_);
+  const TreeBuildError error = builder.build(tree_, "hinge_axis");  // the users' name for it
   if (!error.ok()) {
     // The builder names a joint by its index; the user knows it by its bone, and sets its limits
     // in that bone's IKChainJoint.

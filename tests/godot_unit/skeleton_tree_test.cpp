@@ -359,6 +359,14 @@ TEST(SkeletonTree, BuildErrorsNameTheBoneAndNothingHalfBuiltSurvives) {
   EXPECT_EQ(std::string(m.c_str()).find(": joint "), std::string::npos) << m.c_str();
   EXPECT_EQ(map.bone_count(), 0);
 
+  // A zero hinge axis: named as the IKChainJoint property users set, not the core's field.
+  SkeletonTreeDesc zero_axis = describe(s, "Hips", {"LeftFoot"}, false, nullptr, &knee_hinge);
+  for (TreeBoneDesc& b : zero_axis.bones)
+    if (b.name == "LeftLowerLeg") b.joint.hinge_axis_in_bone = glm::dvec3(0.0);
+  const std::string axis_message = map.build(zero_axis).c_str();
+  EXPECT_NE(axis_message.find("joint 'LeftLowerLeg' (hinge_axis): hinge_axis must be"), std::string::npos)
+      << axis_message;
+
   SkeletonTreeDesc no_effectors = describe(s, "Hips", {"LeftFoot"}, false);
   no_effectors.effector_bones.clear();
   EXPECT_NE(std::string(map.build(no_effectors).c_str()).find("no effectors"), std::string::npos);
