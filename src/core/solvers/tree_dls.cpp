@@ -422,18 +422,21 @@ class HierarchicalStep {
     return ws_.step.allFinite();
   }
 
-  // Calls f(first_column, width) for each run of J's columns that goal k's rows (in level order)
-  // can be nonzero in: its effector's support (the rest of the row is zero, see linearize()).
+  // Calls f(first_column, width) for joint j's runs of J's columns: a floating root's translation
+  // (with joint 0), then the joint's own DOFs (adjacent: active_dofs keeps the DOF order).
+  template <class F>
+  void for_each_joint_run(int j, F&& f) const {
+    if (j == 0 && tree_.floating_root()) f(ws_.dof_column[0], 3);
+    const int width = tree_.dof_count_of(j);
+    if (width > 0) f(ws_.dof_column[tree_.dof_offset(j)], width);
+  }
+  // ... for each run that goal k's rows (in level order) can be nonzero in: its effector's support
+  // (the rest of the row is zero, see linearize()).
   template <class F>
   void for_each_support_run(int k, F&& f) const {
     const int e = problem_.goals[ws_.goal_order[k]].goal.effector;
     const int* support = tree_.support_list(e);
-    for (int s = 0; s < tree_.support_count(e); ++s) {
-      const int j = support[s];
-      if (j == 0 && tree_.floating_root()) f(ws_.dof_column[0], 3);
-      const int width = tree_.dof_count_of(j);
-      if (width > 0) f(ws_.dof_column[tree_.dof_offset(j)], width);
-    }
+    for (int s = 0; s < tree_.support_count(e); ++s) for_each_joint_run(support[s], f);
   }
   // out[i] = (row first + i of J) . x for the `count` rows from `first` (whole goals), over the
   // supports only: a foot's rows touch the hips and one leg, a few of the tree's columns.
@@ -509,11 +512,7 @@ class HierarchicalStep {
             b20 += a2 * c0, b21 += a2 * c1, b22 += a2 * c2;
           }
         };
-        for (int s = 0; s < common_end && sa[s] == sb[s]; ++s) {
-          const int j = sa[s];
-          if (j == 0 && tree_.floating_root()) add_columns(ws_.dof_column[0], 3);
-          add_columns(ws_.dof_column[tree_.dof_offset(j)], tree_.dof_count_of(j));
-        }
+        for (int s = 0; s < common_end && sa[s] == sb[s]; ++s) for_each_joint_run(sa[s], add_columns);
         const double block[3][3] = {{b00, b01, b02}, {b10, b11, b12}, {b20, b21, b22}};
         for (int i = 0; i < 3; ++i)
           for (int k = 0; k < 3; ++k) {
