@@ -37,7 +37,7 @@ std::vector<SolverKind> tree_solvers() {
 //   bfgs     position 99 / 100, 6-D 67 / 98          (medians ~1e-6 m)
 //   ccd      position 29 / 77,  6-D 0 / 0  in 500 sweeps (medians 0.13 mm / 0.01 mm; 6-D 15 / 8 mm):
 //            linear convergence, slowest where the spine is shared
-//   fabrik   position 2 / 4,    6-D 0 / 0             (medians 26 / 41 mm; 6-D 160 / 120 mm): the
+//   fabrik   position 3 / 4,    6-D 2 / 0             (medians 25 / 41 mm; 6-D 132 / 114 mm): the
 //            limits stop it at points that are not solutions - with the fixture's limits off it
 //            reaches 30 of 30 position sets (median 9.6e-6 m); a known limit (docs/full-body.md).
 struct RateCase {

@@ -148,6 +148,13 @@ inline double turn_hinge(const Chain& chain, int j, double angle, double max_ste
 // twist is asked for.
 constexpr double kTwistDamping = 1e-2;
 
+// The twist `fit` asks of a ball about its bone (the pairs of what hangs from it), damped toward
+// none by kTwistDamping: chains (aim_chain_at_points) and trees (tree_fabrik.cpp) twist by it.
+inline double damped_twist_angle(HingeFit fit) {
+  fit.c += kTwistDamping * fit.scale;
+  return fit.angle();
+}
+
 // Running sums over the points k = j+1..n of one pass: the current points x_k and the desired
 // points y_k (both relative to the root, which keeps the sums' rounding at the chain's scale), so
 // that a hinge's least-squares fit over every point after it costs O(1) instead of O(n).
@@ -247,9 +254,8 @@ inline void aim_chain_at_points(const Chain& chain, Workspace& ws, const glm::dv
         // damped toward no twist (kTwistDamping).
         if (j + 1 < n && chain.joint_type(j + 1) == JointType::kHinge && glm::length(aim) > tiny) {
           const glm::dvec3 bone = glm::normalize(aim);
-          HingeFit fit = sums.fit(bone, glm::normalize(applied * moved), old_origin - root, origin - root);
-          fit.c += kTwistDamping * fit.scale;
-          turn_ball(chain, j, pre, glm::angleAxis(fit.angle(), bone), max_step_angle, params);
+          const HingeFit fit = sums.fit(bone, glm::normalize(applied * moved), old_origin - root, origin - root);
+          turn_ball(chain, j, pre, glm::angleAxis(damped_twist_angle(fit), bone), max_step_angle, params);
         }
         break;
       }

@@ -18,20 +18,25 @@
 //    effector at its origin with a position goal, or an effector with both a position and an
 //    orientation goal (the joint sits at target - F offset, F the frame the heaviest orientation
 //    goal asks for: fabrik.cpp's tip-frame pin, on every effector).
+//    Where a joint is pinned with its frame (a wrist), the bone from its parent is kept within the
+//    joint's cone about the pinned frame (A&L sec. 4.2's orientational constraint).
 //  - backward stage (from the root, ws.points_backward): the root stays at its origin (a floating root
 //    goes to the forward stage's centroid: the body moves to where its branches pull it), and every
 //    point is pulled from its parent's new position to the bone's length.
 //  - conversion, fused, root first: each joint turns so that the points below it best follow their
 //    backward-stage positions, its ancestors already updated: a ball with one targeted child takes
-//    the minimal rotation aiming that bone (twisted about it when the child is a hinge so its plane
-//    faces the points further on, as fabrik.cpp's hip -> knee), a ball sub-base Horn's best rotation
-//    of its children (geometric::BallFit), a hinge the least-squares angle over every targeted
-//    point below it (geometric::HingeFit). Limits are applied right after each joint's update
-//    (turn_ball_params / turn_hinge_param, the mechanism chains use), so they feed into the rest of
-//    the pass (A&L sec. 4.2); points and params never disagree (forward kinematics follows).
-//  - orientation, aim and aim-at goals: after the pass each such goal's effector joint takes the
-//    rotation that best serves the goals on its effectors (CCD's per-joint fit, as fabrik.cpp's
-//    final tip alignment), for every effector, not only a chain's tip.
+//    the minimal rotation aiming that bone (twisted about it when the child is a hinge, so its plane
+//    faces the points further on, as fabrik.cpp's hip -> knee, or carries a frame goal, so the
+//    child's limits need not do all the turning), a ball sub-base Horn's best rotation of its
+//    children (geometric::BallFit), a hinge the least-squares angle over every targeted point below
+//    it (geometric::HingeFit). A joint carrying an orientation, aim or aim-at goal's effector instead
+//    takes the rotation that best serves the goals on its effectors (CCD's per-joint fit, as
+//    fabrik.cpp's final tip alignment), in the same pass: its descendants then hang from the frame
+//    it ends with (fitted after the pass, from frames the fits before had left stale, the hips' fit
+//    left every effector below off by the root's leftover turn: warm body tracking stuck there,
+//    docs/full-body.md). Limits are applied right after each joint's update (turn_ball_params /
+//    turn_hinge_param, the mechanism chains use), so they feed into the rest of the pass (A&L sec.
+//    4.2); points and params never disagree (forward kinematics follows).
 // Prismatic joints are not taken (the solver table). The posture is ignored (no null space).
 // Termination and stuck poses: tree_common::Progress (the stall rule, escapes, the best pose).
 #include <algorithm>
@@ -96,10 +101,58 @@ class TreeFabrik {
     return true;
   }
 
+  // The frame joint j must have where an effector on it is pinned with an orientation goal (the
+  // forward stage's pin); false when none is.
+  bool pinned_frame(int j, glm::dquat& frame) const {
+    for (int e = 0; e < tree_.effector_count(); ++e) {
+      glm::dvec3 target;
+      bool has_frame = false;
+      if (tree_.effector(e).joint == j && weight(joints_ + e) > 0.0 && effector_targets(e, target, frame, has_frame) &&
+          has_frame)
+        return true;
+    }
+    return false;
+  }
+  // Joint j carries an effector with an orientation, aim or aim-at goal.
+  bool carries_frame_goal(int j) const {
+    for (int g = 0; g < problem_.goals.size; ++g) {
+      const Goal& goal = problem_.goals[g].goal;
+      if (goal.kind != GoalKind::kPosition && tree_.effector(goal.effector).joint == j) return true;
+    }
+    return false;
+  }
+  // Ball j's twist axis continues the bone from its parent (rest_rotation * twist_axis along
+  // offset_in_parent, as a limb's joints in a T-pose): its swing is then the angle between that
+  // bone and the bone after it.
+  bool twist_axis_along_bone(int j) const {
+    const glm::dvec3 offset = tree_.offset_in_parent(j);
+    const double length = glm::length(offset);
+    return tree_.joint_type(j) == JointType::kBall && length > tiny_ &&
+           glm::dot(tree_.rest_rotation(j) * tree_.limits(j).twist_axis, offset) > (1.0 - 1e-9) * length;
+  }
+  // The pairs (geometric::goal_pairs, weighted by level) of every goal on joint j's effectors, with
+  // the effectors moved rigidly by `motion` about `pivot` (from `pivot_old`, where ws's frames have
+  // it) and seen from `pivot`.
+  template <typename AddPair>
+  void frame_goal_pairs(int j, const glm::dvec3& pivot_old, const glm::dvec3& pivot, const glm::dquat& motion,
+                        AddPair&& add) const {
+    geometric::Tracked tracked;
+    for (int g = 0; g < problem_.goals.size; ++g) {
+      const TreeGoal& tg = problem_.goals[g];
+      if (tree_.effector(tg.goal.effector).joint != j) continue;
+      tracked.position = pivot + motion * (tree_effector_position(tree_, ws_, tg.goal.effector) - pivot_old);
+      tracked.orientation = motion * tree_effector_orientation(tree_, ws_, tg.goal.effector);
+      tracked.aim_at_on_point = tree_aim_at_on_point(tree_, tg.goal);
+      const double lw = tree_common::level_weight(tg.level);
+      geometric::goal_pairs(tg.goal, tracked, pivot,
+                            [&](const glm::dvec3& a, const glm::dvec3& b, double w) { add(a, b, lw * w); });
+    }
+  }
+
   void forward_stage();
   void backward_stage();
   void convert(double* params);
-  void align_frames(double* params);
+  void fit_frame_goals(int j, const glm::dvec3& origin, const glm::dquat& pre, const glm::dquat& moved, double* q) const;
 
   const Tree& tree_;
   const TreeProblem& problem_;
@@ -127,6 +180,23 @@ void TreeFabrik::forward_stage() {
     if (!(len > tiny_)) {  // on top of each other: keep the old bone direction
       dir = a[p] - a[point];
       len = glm::length(dir);
+    }
+    // A joint whose frame a goal pins (a wrist): the bone from its parent within the joint's cone
+    // about the pinned frame's twist axis, or no frame within its limits turns it that way (A&L
+    // sec. 4.2, the orientational constraint, applied where the forward stage leaves the pin). The
+    // textbook pull kept a tracked forearm where the last frame had it while the hand turned, until
+    // the wrist needed more swing than its cone has (body bench, Boxing_Toes: hands 5-60 deg off).
+    glm::dquat frame;
+    if (point < joints_ && len > 0.0 && tree_.limits(point).has_cone_limit && twist_axis_along_bone(point) &&
+        pinned_frame(point, frame)) {
+      const JointLimits& l = tree_.limits(point);
+      const glm::dvec3 axis = frame * l.twist_axis;  // the bone after the joint
+      const glm::dvec3 bone_in = -dir / len;         // parent -> joint
+      glm::dvec3 side;
+      if (glm::dot(bone_in, axis) < std::cos(l.cone_angle)) {
+        if (!geometric::perpendicular_part(bone_in, axis, 1e-12, side)) side = geometric::any_perpendicular(axis);
+        dir = -len * (std::cos(l.cone_angle) * axis + std::sin(l.cone_angle) * side);
+      }
     }
     acc[p] += weight(point) * (len > 0.0 ? b[point] + dir * (bone(point) / len) : b[point]);
   };
@@ -195,7 +265,9 @@ void TreeFabrik::convert(double* params) {
     const glm::dvec3 old_origin = a[j];
     auto current = [&](int k) { return moved * (a[k] - old_origin); };  // from the new origin
     double* q = params + tree_.dof_offset(j);
-    if (weight(j) > 0.0) {
+    if (frame_goals_ && carries_frame_goal(j)) {
+      fit_frame_goals(j, origin, pre, moved, q);
+    } else if (weight(j) > 0.0) {
       if (tree_.joint_type(j) == JointType::kBall) {
         // The targeted children: joints hanging from j and effectors on j.
         int children = 0, only = -1;
@@ -212,15 +284,36 @@ void TreeFabrik::convert(double* params) {
           const glm::dvec3 aim = c[only] - origin;
           const glm::dquat applied = geometric::turn_ball_params(
               tree_.limits(j), pre, geometric::rotation_between(current(only), aim), o_.max_step_angle, q);
-          // A hinge child bends only in its own plane: twist about the bone so it faces the points
-          // further on (fabrik.cpp's reason).
-          if (only < joints_ && tree_.joint_type(only) == JointType::kHinge && glm::length(aim) > tiny_) {
+          // The twist about the new bone leaves the child's point where it is but turns what hangs
+          // from it, so the ball also twists by the angle that best serves that:
+          //  - a hinge child bends only in its own plane: it should face the points further on
+          //    (fabrik.cpp's reason). Undamped here: the chain's damping (kTwistDamping, for
+          //    straight limbs on a hinge bound) cost the tree's cold solves (the golden
+          //    nolimits_five_6d row ended 2.7e-4 off instead of 2.1e-5) and its warm tracking
+          //    (TreeFabrik.WarmTrackingOfAMovingBodyTargetIsNotWorseThanCold: 1328 frames, 1361 without).
+          //  - a child whose frame a goal fixes (a wrist): without this it must turn the rest of the
+          //    way itself, within its limits, while the minimal rotations leave the ball's twist
+          //    wherever the frames before put it. Tracked, that twist drifts frame to frame (holonomy:
+          //    a bone led around a loop by minimal rotations comes back twisted) until the wrist
+          //    hits its twist bound: the body bench's Boxing_Toes hands ended 5-60 deg off. Damped
+          //    toward none as chains do (geometric::damped_twist_angle; undamped: warm success
+          //    93.45 % instead of 94.39 %, position p99 20 mm instead of 3 mm).
+          if (only < joints_ && glm::length(aim) > tiny_) {
             const glm::dvec3 axis = glm::normalize(aim);
             geometric::HingeFit twist;
-            for (int k = only + 1; k < points; ++k)
-              if (weight(k) > 0.0 && tree_common::is_ancestor_or_self(tree_, only, k < joints_ ? k : parent_point(k)))
-                twist.add(axis, applied * current(k), c[k] - origin, 1.0);
-            geometric::turn_ball_params(tree_.limits(j), pre, glm::angleAxis(twist.angle(), axis), o_.max_step_angle, q);
+            double angle = 0.0;
+            if (tree_.joint_type(only) == JointType::kHinge) {
+              for (int k = only + 1; k < points; ++k)
+                if (weight(k) > 0.0 && tree_common::is_ancestor_or_self(tree_, only, k < joints_ ? k : parent_point(k)))
+                  twist.add(axis, applied * current(k), c[k] - origin, 1.0);
+              angle = twist.angle();
+            } else if (frame_goals_ && carries_frame_goal(only)) {
+              frame_goal_pairs(only, old_origin, origin, glm::normalize(applied * moved),
+                               [&](const glm::dvec3& a, const glm::dvec3& b, double w) { twist.add(axis, a, b, w); });
+              angle = geometric::damped_twist_angle(twist);
+            }
+            if (twist.scale > 0.0)
+              geometric::turn_ball_params(tree_.limits(j), pre, glm::angleAxis(angle, axis), o_.max_step_angle, q);
           }
         } else if (children > 1) {
           geometric::turn_ball_params(tree_.limits(j), pre, fit.rotation(), o_.max_step_angle, q);
@@ -245,41 +338,21 @@ void TreeFabrik::convert(double* params) {
   }
 }
 
-// Each joint carrying an orientation / aim goal's effector takes the rotation that best serves the
-// goals on its effectors (geometric::goal_pairs, as CCD's per-joint fit). ws: FK of params on
-// entry; stale after.
-void TreeFabrik::align_frames(double* params) {
-  geometric::Tracked tracked;
-  for (int j = 0; j < joints_; ++j) {
-    bool any = false;
-    for (int g = 0; g < problem_.goals.size && !any; ++g)
-      any = problem_.goals[g].goal.kind != GoalKind::kPosition && tree_.effector(problem_.goals[g].goal.effector).joint == j;
-    if (!any) continue;
-    const glm::dvec3 origin = ws_.joint_origins[j];
-    const glm::dquat& pre = ws_.joint_pre_rotations[j];
-    auto each_goal = [&](auto&& add) {
-      for (int g = 0; g < problem_.goals.size; ++g) {
-        const TreeGoal& tg = problem_.goals[g];
-        if (tree_.effector(tg.goal.effector).joint != j) continue;
-        tracked.position = tree_effector_position(tree_, ws_, tg.goal.effector);
-        tracked.orientation = tree_effector_orientation(tree_, ws_, tg.goal.effector);
-        tracked.aim_at_on_point = tree_aim_at_on_point(tree_, tg.goal);
-        const double lw = tree_common::level_weight(tg.level);
-        geometric::goal_pairs(tg.goal, tracked, origin,
-                              [&](const glm::dvec3& a, const glm::dvec3& b, double w) { add(a, b, lw * w); });
-      }
-    };
-    double* q = params + tree_.dof_offset(j);
-    if (tree_.joint_type(j) == JointType::kBall) {
-      geometric::BallFit fit;
-      each_goal([&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(a, b, w); });
-      if (fit.pairs > 0) geometric::turn_ball_params(tree_.limits(j), pre, fit.rotation(), o_.max_step_angle, q);
-    } else {
-      const glm::dvec3 axis = pre * tree_.axis(j);
-      geometric::HingeFit fit;
-      each_goal([&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(axis, a, b, w); });
-      geometric::turn_hinge_param(tree_.limits(j), fit.angle(), o_.max_step_angle, q);
-    }
+// Turns joint j (its new origin `origin` and frame before its motion `pre`; `moved`: the rigid
+// motion of its subtree since ws's frames) to the rotation that best serves the goals on its
+// effectors (geometric::goal_pairs, as CCD's per-joint fit and fabrik.cpp's final tip alignment).
+void TreeFabrik::fit_frame_goals(int j, const glm::dvec3& origin, const glm::dquat& pre, const glm::dquat& moved,
+                                 double* q) const {
+  const glm::dvec3 old_origin = ws_.joint_origins[j];
+  if (tree_.joint_type(j) == JointType::kBall) {
+    geometric::BallFit fit;
+    frame_goal_pairs(j, old_origin, origin, moved, [&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(a, b, w); });
+    if (fit.pairs > 0) geometric::turn_ball_params(tree_.limits(j), pre, fit.rotation(), o_.max_step_angle, q);
+  } else {
+    const glm::dvec3 axis = pre * tree_.axis(j);
+    geometric::HingeFit fit;
+    frame_goal_pairs(j, old_origin, origin, moved, [&](const glm::dvec3& a, const glm::dvec3& b, double w) { fit.add(axis, a, b, w); });
+    geometric::turn_hinge_param(tree_.limits(j), fit.angle(), o_.max_step_angle, q);
   }
 }
 
@@ -291,7 +364,6 @@ double TreeFabrik::iterate(double* params) {
   forward_stage();
   backward_stage();
   convert(params);  // leaves ws holding the new pose's frames
-  if (frame_goals_ && !ws_.deadline.hit) align_frames(params);
   double moved = 0.0;
   for (int d = 0; d < dofs; ++d) moved = std::max(moved, std::abs(params[d] - ws_.params_trial[d]));
   return moved;
