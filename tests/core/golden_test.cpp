@@ -149,7 +149,7 @@ const Golden kTreeGolden[] = {
     {"floating_levels/bfgs", 1, 60, 0, 0, 0.75071755430289178},
     {"floating_levels/fabrik", 1, 60, 1, 0, 1.0112710169653443},
     {"floating_posture/dls", 1, 60, 0, 0, 0.71656195940176592},
-    {"nolimits_hands_feet_pos/ccd", 1, 60, 0, 0, 0.0052261085141991157},
+    {"nolimits_hands_feet_pos/ccd", 0, 54, 0, 0, 3.2639778429230947e-06},
     {"nolimits_hands_feet_pos/dls", 0, 9, 0, 0, 1.8911374837656067e-07},
     {"nolimits_hands_feet_pos/bfgs", 0, 11, 0, 0, 3.5263152485668517e-06},
     {"nolimits_hands_feet_pos/fabrik", 0, 47, 0, 0, 1.0052732888228708e-05},

@@ -58,62 +58,20 @@ namespace ikchain {
 namespace {
 
 constexpr int kMaxGoals = kCcdMaxGoals;
-// triangle_turn() applies when the hinge can change the ball-to-effector distance by more than this
-// share of |o_j - o_{j-1}| |effector - o_j| (r / (|u| |v|) in triangle_turn(): the product of the
-// sines of the angles the bone before the hinge and the effector make with its axis): a hinge
-// twisting about the bone before it is left to the classic fit.
-constexpr double kTriangleMinShare = 1e-3;
-// ... and when some angle within the limits makes that distance to this share of what the hinge can
-// change it by (2 r in triangle_turn(); rounding only).
-constexpr double kTriangleMaxMiss = 1e-9;
 
-// The hinge's triangle step (see the file comment): hinge j right after a ball joint j - 1 without
-// cone or twist limits, one position goal after it. Takes the hinge angle that puts the effector
-// at the target's distance from the ball's origin h: with the effector f, o = o_j, v = f - o split
-// into v_par (along the unit axis k) and v_perp, w = k x v_perp and u = o - h, turning the hinge by
-// t gives |f(t) - h|^2 = |u + v_par|^2 + |v_perp|^2 + 2 (A cos t + B sin t), A = u.v_perp,
-// B = u.w, so A cos t + B sin t = C with C = (|target - h|^2 - |u + v_par|^2 - |v_perp|^2) / 2:
-// t = atan2(B, A) +- acos(C / hypot(A, B)) (clamped: the nearest distance the hinge can make).
-// Of the two solutions, and the bounds, the one within the limits whose distance is nearest the
-// target's, then the smaller turn. Writes the turn into `turn` (rad, not yet applied); false when
-// the step does not apply or the hinge barely changes that distance (then the classic fit).
+// The hinge's triangle step (see the file comment; geometric::triangle_turn): hinge j right after
+// a ball joint j - 1 without cone or twist limits, one position goal after it. Writes the turn
+// into `turn` (rad, not yet applied); false when the step does not apply (then the classic fit).
 bool triangle_turn(const Chain& chain, Span<const Goal> goals, const geometric::Tracked* tracked, int j,
                    const Workspace& ws, const double* params, double& turn) {
   if (j < 1 || chain.joint_type(j) != JointType::kHinge || chain.joint_type(j - 1) != JointType::kBall ||
       has_joint_limits(JointType::kBall, chain.limits(j - 1)) || goals.size != 1 ||
       goals[0].kind != GoalKind::kPosition || tracked[0].effector <= j)
     return false;
-  const glm::dvec3 h = ws.joint_origins[j - 1], o = ws.joint_origins[j];
-  const glm::dvec3 k = geometric::hinge_axis_in_base(chain, j, ws.joint_pre_rotations[j]);
-  const glm::dvec3 v = tracked[0].position - o;
-  const glm::dvec3 v_par = k * glm::dot(k, v), v_perp = v - v_par, w = glm::cross(k, v_perp), u = o - h;
-  const double a = glm::dot(u, v_perp), b = glm::dot(u, w), r = std::hypot(a, b);
-  // The hinge changes the distance by at most 2 r; below this share of |u| |v| it cannot steer it.
-  if (!(r > kTriangleMinShare * glm::length(u) * glm::length(v))) return false;
-  const glm::dvec3 to_target = goals[0].target_position - h;
-  const double c =
-      0.5 * (glm::dot(to_target, to_target) - glm::dot(u + v_par, u + v_par) - glm::dot(v_perp, v_perp));
-  const double phi = std::atan2(b, a), alpha = std::acos(std::clamp(c / r, -1.0, 1.0));
-  const JointLimits& l = chain.limits(j);
-  const double q0 = params[chain.dof_offset(j)];
-  // The angle actually reached by a turn of t (the limits applied as turn_hinge applies them).
-  auto reached = [&](double t) { return l.has_hinge_limit ? std::clamp(q0 + t, l.hinge_min, l.hinge_max) - q0 : t; };
-  const double candidates[4] = {geometric::wrap_angle(phi + alpha), geometric::wrap_angle(phi - alpha),
-                                l.hinge_min - q0, l.hinge_max - q0};
-  const int count = l.has_hinge_limit ? 4 : 2;
-  double best_miss = INFINITY;
-  for (int i = 0; i < count; ++i) {
-    const double t = reached(candidates[i]);
-    const double miss = std::abs(a * std::cos(t) + b * std::sin(t) - c);
-    if (miss < best_miss - 1e-12 * r || (miss <= best_miss + 1e-12 * r && std::abs(t) < std::abs(turn))) {
-      best_miss = std::min(best_miss, miss);
-      turn = t;
-    }
-  }
-  // A distance the hinge cannot make within its limits (the target beyond its reach from h, or
-  // inside it): the ball's origin must move first, which the classic fit leaves room for (set
-  // straight or fully folded here, a limb on its bound would ask for the stuck escape every sweep).
-  return best_miss <= kTriangleMaxMiss * r;
+  return geometric::triangle_turn(ws.joint_origins[j - 1], ws.joint_origins[j],
+                                  geometric::hinge_axis_in_base(chain, j, ws.joint_pre_rotations[j]),
+                                  tracked[0].position, goals[0].target_position, chain.limits(j),
+                                  params[chain.dof_offset(j)], turn);
 }
 
 // One tip-to-root sweep. ws holds forward kinematics of params on entry (the origins and frames

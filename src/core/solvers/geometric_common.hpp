@@ -136,6 +136,56 @@ inline double turn_hinge(const Chain& chain, int j, double angle, double max_ste
   return turn_hinge_param(chain.limits(j), angle, max_step_angle, params + chain.dof_offset(j));
 }
 
+// The hinge's triangle step of CCD (ccd.cpp's file comment; tree_ccd.cpp): a hinge right after a
+// ball joint without limits, one position goal after it. triangle_turn() applies when the hinge can
+// change the ball-to-effector distance by more than this share of |o_j - o_{j-1}| |effector - o_j|
+// (r / (|u| |v|) below: the product of the sines of the angles the bone before the hinge and the
+// effector make with its axis): a hinge twisting about the bone before it is left to the classic fit.
+constexpr double kTriangleMinShare = 1e-3;
+// ... and when some angle within the limits makes that distance to this share of what the hinge can
+// change it by (2 r below; rounding only).
+constexpr double kTriangleMaxMiss = 1e-9;
+
+// The hinge angle that puts the effector at the target's distance from the ball's origin h (the
+// law of cosines, as two_bone.cpp and the triangulation of Mueller-Cajar & Mukundan, IVCNZ 2007):
+// with the effector f, the hinge's origin o and unit axis k (base frame), v = f - o split into
+// v_par (along k) and v_perp, w = k x v_perp and u = o - h, turning the hinge by t gives
+// |f(t) - h|^2 = |u + v_par|^2 + |v_perp|^2 + 2 (A cos t + B sin t), A = u.v_perp, B = u.w, so
+// A cos t + B sin t = C with C = (|target - h|^2 - |u + v_par|^2 - |v_perp|^2) / 2:
+// t = atan2(B, A) +- acos(C / hypot(A, B)) (clamped: the nearest distance the hinge can make).
+// Of the two solutions, and the bounds, the one within the limits whose distance is nearest the
+// target's, then the smaller turn. `q0`: the hinge's param now. Writes the turn into `turn` (rad,
+// not yet applied); false when the hinge barely changes that distance, or no angle within the
+// limits makes it (the ball's origin must move first, which the classic fit leaves room for: set
+// straight or fully folded here, a limb on its bound would ask for the stuck escape every sweep).
+inline bool triangle_turn(const glm::dvec3& h, const glm::dvec3& o, const glm::dvec3& k, const glm::dvec3& effector,
+                          const glm::dvec3& target, const JointLimits& l, double q0, double& turn) {
+  turn = 0.0;
+  const glm::dvec3 v = effector - o;
+  const glm::dvec3 v_par = k * glm::dot(k, v), v_perp = v - v_par, w = glm::cross(k, v_perp), u = o - h;
+  const double a = glm::dot(u, v_perp), b = glm::dot(u, w), r = std::hypot(a, b);
+  // The hinge changes the distance by at most 2 r; below this share of |u| |v| it cannot steer it.
+  if (!(r > kTriangleMinShare * glm::length(u) * glm::length(v))) return false;
+  const glm::dvec3 to_target = target - h;
+  const double c =
+      0.5 * (glm::dot(to_target, to_target) - glm::dot(u + v_par, u + v_par) - glm::dot(v_perp, v_perp));
+  const double phi = std::atan2(b, a), alpha = std::acos(std::clamp(c / r, -1.0, 1.0));
+  // The angle actually reached by a turn of t (the limits applied as turn_hinge applies them).
+  auto reached = [&](double t) { return l.has_hinge_limit ? std::clamp(q0 + t, l.hinge_min, l.hinge_max) - q0 : t; };
+  const double candidates[4] = {wrap_angle(phi + alpha), wrap_angle(phi - alpha), l.hinge_min - q0, l.hinge_max - q0};
+  const int count = l.has_hinge_limit ? 4 : 2;
+  double best_miss = INFINITY;
+  for (int i = 0; i < count; ++i) {
+    const double t = reached(candidates[i]);
+    const double miss = std::abs(a * std::cos(t) + b * std::sin(t) - c);
+    if (miss < best_miss - 1e-12 * r || (miss <= best_miss + 1e-12 * r && std::abs(t) < std::abs(turn))) {
+      best_miss = std::min(best_miss, miss);
+      turn = t;
+    }
+  }
+  return best_miss <= kTriangleMaxMiss * r;
+}
+
 // The ball's twist before a hinge in aim_chain_at_points maximises sum b . R(t) a plus this share
 // of sum |a| |b| times cos t (a prior toward no twist, as Levenberg-Marquardt's damping): the
 // points after the ball pull the twist only as far as they lie off its axis. On a nearly straight
