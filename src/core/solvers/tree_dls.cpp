@@ -354,10 +354,14 @@ class HierarchicalStep {
         for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
       const Cols W = cols_of(F.block(0, b, b, m));
       if (b > 0) {
-        for (int j = 0; j < m; ++j) {
-          for (int i = 0; i < b; ++i) W(i, j) = M(i, b + j);
-          lower_solve(cols_of(F), b, W.col(j));
-        }
+        // W^T first, where F's new block row goes (m x b: its columns are W's rows), by one
+        // substitution over all m right-hand sides at once; then W from it.
+        const Cols Wt = cols_of(F.block(b, 0, m, b));
+        for (int j = 0; j < b; ++j)
+          for (int i = 0; i < m; ++i) Wt(i, j) = M(b + i, j);
+        linalg::lower_solve_rows(cols_of(F), b, Wt, m);
+        for (int j = 0; j < m; ++j)
+          for (int i = 0; i < b; ++i) W(i, j) = Wt(j, i);
         subtract_gram_of_columns(W, b, m, S);
       }
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
@@ -365,9 +369,7 @@ class HierarchicalStep {
         for (int i = j; i < m; ++i) K(i, j) = S(i, j) + (i == j ? mu : 0.0);
       cholesky_lower(K, m, kMinPivot2);
       if (l + 1 < served_ || (factored_posture_ && l + 1 == levels_.count)) {
-        const Cols D = cols_of(F.block(b, b, m, m));
-        for (int j = 0; j < b; ++j)
-          for (int i = 0; i < m; ++i) F(b + i, j) = W(j, i);
+        const Cols D = cols_of(F.block(b, b, m, m));  // F's block row: [W^T (in place), D]
         for (int j = 0; j < m; ++j)
           for (int i = j; i < m; ++i) D(i, j) = S(i, j) + (i == j ? ridge : 0.0);
         cholesky_lower(D, m, kMinPivot2);
