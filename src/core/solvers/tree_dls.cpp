@@ -388,8 +388,12 @@ class HierarchicalStep {
     for (int l = 0; l < served_; ++l) {
       const int b = levels_.begin[l], m = levels_.end[l] - b;
       double* r = ws_.row_vec_a.data() + b;
-      rows_times(b, m, y, r);
-      for (int i = 0; i < m; ++i) r[i] = residual[b + i] - r[i];
+      if (l == 0) {  // y is still zero: e_l - Jl y is e_l
+        for (int i = 0; i < m; ++i) r[i] = residual[b + i];
+      } else {
+        rows_times(b, m, y, r);
+        for (int i = 0; i < m; ++i) r[i] = residual[b + i] - r[i];
+      }
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
       lower_solve(K, m, r);
       lower_transpose_solve(K, m, r);
