@@ -308,11 +308,13 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
 
   TreeSolverStatus status;
   status.reason = TerminationReason::kConverged;
+  status.fk_of_params = true;  // when no solver runs: the start pose's FK above
   if (!start_errors.all_met() || !problem.posture.empty()) status = run_tree_solver(kind, tree, problem, options, ws, params.data());
   summary.iterations = status.iterations;
   summary.escapes = status.escapes;
   summary.reason = status.reason;
   if (!params.allFinite()) {
+    status.fk_of_params = false;
     params = ws.params_backup;
     if (!options.warm_start) params.setZero();
     project_tree_to_limits(tree, params.data());
@@ -322,7 +324,7 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   summary.budget_exhausted = ws.deadline.hit;
 
   // The verdict from the pose returned, measured here: it cannot disagree with the pose.
-  tree_forward_kinematics(tree, params.data(), ws);
+  if (!status.fk_of_params) tree_forward_kinematics(tree, params.data(), ws);
   const TreeErrors final_errors =
       tree_measure(tree, problem, options, ws, nullptr, nullptr, result.goal_error.data());
   summary.final_error = std::sqrt(2.0 * final_errors.cost);

@@ -142,7 +142,12 @@ inline Eigen::Vector3d solve_spd3(const Eigen::Matrix3d& a, const Eigen::Vector3
 // Small dense kernels on column-major blocks (pointer + leading dimension), column-oriented so the
 // inner loops run down contiguous columns: the tree DLS's priority levels (solvers/tree_dls.cpp).
 // Their matrices are 3 rows per goal (18 x 18 for six 6-D goals): too small for Eigen's blocked
-// products, whose packing costs more than the arithmetic here.
+// products, whose packing costs more than the arithmetic here, and too small for Eigen's dynamic
+// vector expressions too where a kernel makes many short updates (sizes, alignment peeling):
+// the Cholesky factor and the multi-right-hand-side substitution hold their rows in registers.
+// subtract_products() takes two doubles at a time (Eigen's fixed-size 2-vectors: one SSE2
+// operation each on x86-64, plain scalars elsewhere) and rounds exactly as the column updates it
+// replaced: the element-wise updates are the same operations in the same order.
 struct Cols {
   double* p;
   Eigen::Index ld;
@@ -154,19 +159,78 @@ Cols cols_of(Block&& b) {
   return Cols{b.data(), b.outerStride()};
 }
 
+using Pair = Eigen::Array2d;
+inline Pair load2(const double* p) { return Eigen::Map<const Pair>(p); }
+inline void store2(double* p, const Pair& v) { Eigen::Map<Pair>{p} = v; }
+
+// y[i] -= s[j * s_stride] * a[i + j * ld] for j = 0, 1, ..., count - 1 in turn, for the 2 * Pairs
+// (+ 1 when Odd) rows i from 0, held in registers.
+template <int Pairs, bool Odd>
+inline void subtract_products_rows(double* y, const double* a, Eigen::Index ld, const double* s,
+                                   Eigen::Index s_stride, int count) {
+  static_assert(Pairs >= 0 && Pairs <= 4, "at most 8 rows in registers");
+  // Named accumulators, not an array: GCC keeps these in registers.
+  Pair y0, y1, y2, y3;
+  double last = 0.0;
+  if constexpr (Pairs > 0) y0 = load2(y);
+  if constexpr (Pairs > 1) y1 = load2(y + 2);
+  if constexpr (Pairs > 2) y2 = load2(y + 4);
+  if constexpr (Pairs > 3) y3 = load2(y + 6);
+  if constexpr (Odd) last = y[2 * Pairs];
+  for (int j = 0; j < count; ++j, a += ld, s += s_stride) {
+    const Pair sv = Pair::Constant(*s);
+    if constexpr (Pairs > 0) y0 -= sv * load2(a);
+    if constexpr (Pairs > 1) y1 -= sv * load2(a + 2);
+    if constexpr (Pairs > 2) y2 -= sv * load2(a + 4);
+    if constexpr (Pairs > 3) y3 -= sv * load2(a + 6);
+    if constexpr (Odd) last -= *s * a[2 * Pairs];
+  }
+  if constexpr (Pairs > 0) store2(y, y0);
+  if constexpr (Pairs > 1) store2(y + 2, y1);
+  if constexpr (Pairs > 2) store2(y + 4, y2);
+  if constexpr (Pairs > 3) store2(y + 6, y3);
+  if constexpr (Odd) y[2 * Pairs] = last;
+}
+// The same for rows i < n: `count` subtract_scaled() calls down the columns of a, rounding as they
+// do, with y held in registers (eight rows at a time, then the rest at once) instead of loaded and
+// stored by every call.
+inline void subtract_products(double* y, int n, const double* a, Eigen::Index ld, const double* s,
+                              Eigen::Index s_stride, int count) {
+  int i = 0;
+  for (; i + 8 <= n; i += 8) subtract_products_rows<4, false>(y + i, a + i, ld, s, s_stride, count);
+  switch (n - i) {
+    case 1: subtract_products_rows<0, true>(y + i, a + i, ld, s, s_stride, count); break;
+    case 2: subtract_products_rows<1, false>(y + i, a + i, ld, s, s_stride, count); break;
+    case 3: subtract_products_rows<1, true>(y + i, a + i, ld, s, s_stride, count); break;
+    case 4: subtract_products_rows<2, false>(y + i, a + i, ld, s, s_stride, count); break;
+    case 5: subtract_products_rows<2, true>(y + i, a + i, ld, s, s_stride, count); break;
+    case 6: subtract_products_rows<3, false>(y + i, a + i, ld, s, s_stride, count); break;
+    case 7: subtract_products_rows<3, true>(y + i, a + i, ld, s, s_stride, count); break;
+    default: break;
+  }
+}
+// y[i] *= s for i < n.
+inline void scale(double* y, double s, int n) {
+  const Pair sv = Pair::Constant(s);
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store2(y + i, load2(y + i) * sv);
+  if (i < n) y[i] *= s;
+}
 using Seg = Eigen::Map<Eigen::VectorXd>;
 using ConstSeg = Eigen::Map<const Eigen::VectorXd>;
 
 // A = L L^T in place (lower triangle; the upper is not read), right-looking (cholesky_factor
 // above is left-looking, on any matrix type: the two round differently, so each caller keeps its
-// own); pivots below min_pivot2 are raised to it (cholesky_factor's rule).
+// own); pivots below min_pivot2 are raised to it (cholesky_factor's rule). Computed a column at a
+// time (left-looking), which rounds as right-looking does: every entry gets the same products
+// subtracted in the same order (column 0's first), then the same scaling.
 inline void cholesky_lower(Cols a, int n, double min_pivot2) {
-  for (int j = 0; j < n; ++j) {
-    double* cj = a.col(j);
-    const double d = std::sqrt(std::max(cj[j], min_pivot2));
-    cj[j] = d;
-    Seg(cj + j + 1, n - j - 1) *= 1.0 / d;
-    for (int k = j + 1; k < n; ++k) Seg(a.col(k) + k, n - k) -= cj[k] * ConstSeg(cj + k, n - k);
+  for (int k = 0; k < n; ++k) {
+    double* ck = a.col(k);
+    subtract_products(ck + k, n - k, a.p + k, a.ld, a.p + k, a.ld, k);  // - L(i, j) L(k, j), j < k
+    const double d = std::sqrt(std::max(ck[k], min_pivot2));
+    ck[k] = d;
+    scale(ck + k + 1, 1.0 / d, n - k - 1);
   }
 }
 // x <- L^-1 x (forward substitution) for a vector with stride 1.
@@ -175,6 +239,18 @@ inline void lower_solve(Cols l, int n, double* x) {
     const double* ck = l.col(k);
     const double v = (x[k] /= ck[k]);
     Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
+  }
+}
+// X <- L^-1 X for the `count` rows of X^T given as the columns of xt (xt.col(k) is row k of X, its
+// `rhs` entries contiguous): lower_solve() on each column of X at once, rounding as it does (each
+// entry gets the products of the rows above it subtracted in row order, then the division), with
+// the right-hand sides as the vectorised dimension instead of a column's short tail.
+inline void lower_solve_rows(Cols l, int count, Cols xt, int rhs) {
+  for (int k = 0; k < count; ++k) {
+    double* xk = xt.col(k);
+    subtract_products(xk, rhs, xt.p, xt.ld, l.p + k, l.ld, k);  // - L(k, j) X(j, :), j < k
+    const double d = l(k, k);
+    for (int c = 0; c < rhs; ++c) xk[c] /= d;
   }
 }
 // x <- L^-T x (back substitution).

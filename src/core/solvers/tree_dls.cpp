@@ -234,14 +234,15 @@ class HierarchicalStep {
       ws.dof_scale[cols_] = 1.0 / std::sqrt(cost);
       ++cols_;
     }
-    ws.jacobian.topLeftCorner(rows_, cols_).setZero();
   }
 
   int columns() const { return cols_; }
 
   // J at the pose ws holds (FK and DOF axes), scaled columns, rows in level order. Only a goal's
-  // support columns are written: the others are zero from the constructor on (block_limits'
-  // changes keep them zero), so an effector costs its path from the root, not the whole tree.
+  // support columns are written, so an effector costs its path from the root, not the whole tree;
+  // the rest of J is never read (rows_times, add_rows_transpose and gram() walk the supports,
+  // column_moves() the rows of the goals a joint moves) and holds whatever it held: zeroing it
+  // for every solve cost 4 % of a warm body solve's instructions.
   void linearize() {
     Eigen::MatrixXd& J = ws_.jacobian;
     for (int k = 0; k < problem_.goals.size; ++k) {
@@ -353,10 +354,14 @@ class HierarchicalStep {
         for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
       const Cols W = cols_of(F.block(0, b, b, m));
       if (b > 0) {
-        for (int j = 0; j < m; ++j) {
-          for (int i = 0; i < b; ++i) W(i, j) = M(i, b + j);
-          lower_solve(cols_of(F), b, W.col(j));
-        }
+        // W^T first, where F's new block row goes (m x b: its columns are W's rows), by one
+        // substitution over all m right-hand sides at once; then W from it.
+        const Cols Wt = cols_of(F.block(b, 0, m, b));
+        for (int j = 0; j < b; ++j)
+          for (int i = 0; i < m; ++i) Wt(i, j) = M(b + i, j);
+        linalg::lower_solve_rows(cols_of(F), b, Wt, m);
+        for (int j = 0; j < m; ++j)
+          for (int i = 0; i < b; ++i) W(i, j) = Wt(j, i);
         subtract_gram_of_columns(W, b, m, S);
       }
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
@@ -364,9 +369,7 @@ class HierarchicalStep {
         for (int i = j; i < m; ++i) K(i, j) = S(i, j) + (i == j ? mu : 0.0);
       cholesky_lower(K, m, kMinPivot2);
       if (l + 1 < served_ || (factored_posture_ && l + 1 == levels_.count)) {
-        const Cols D = cols_of(F.block(b, b, m, m));
-        for (int j = 0; j < b; ++j)
-          for (int i = 0; i < m; ++i) F(b + i, j) = W(j, i);
+        const Cols D = cols_of(F.block(b, b, m, m));  // F's block row: [W^T (in place), D]
         for (int j = 0; j < m; ++j)
           for (int i = j; i < m; ++i) D(i, j) = S(i, j) + (i == j ? ridge : 0.0);
         cholesky_lower(D, m, kMinPivot2);
@@ -385,8 +388,12 @@ class HierarchicalStep {
     for (int l = 0; l < served_; ++l) {
       const int b = levels_.begin[l], m = levels_.end[l] - b;
       double* r = ws_.row_vec_a.data() + b;
-      rows_times(b, m, y, r);
-      for (int i = 0; i < m; ++i) r[i] = residual[b + i] - r[i];
+      if (l == 0) {  // y is still zero: e_l - Jl y is e_l
+        for (int i = 0; i < m; ++i) r[i] = residual[b + i];
+      } else {
+        rows_times(b, m, y, r);
+        for (int i = 0; i < m; ++i) r[i] = residual[b + i] - r[i];
+      }
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
       lower_solve(K, m, r);
       lower_transpose_solve(K, m, r);
@@ -471,13 +478,23 @@ class HierarchicalStep {
     }
   }
 
+  // True when J's column c (a DOF of joint j) is nonzero in the rows of a goal whose effector j
+  // moves: the only rows linearize() writes there.
+  bool column_moves(int c, int j) const {
+    const double* col = ws_.jacobian.col(c).data();
+    for (int k = 0; k < problem_.goals.size; ++k)
+      if (tree_.supports(problem_.goals[ws_.goal_order[k]].goal.effector, j) &&
+          (col[3 * k] != 0.0 || col[3 * k + 1] != 0.0 || col[3 * k + 2] != 0.0))
+        return true;
+    return false;
+  }
   // True when the step in ws.step pushes a joint out of a bound it rests on that J still moves
   // (block_limits() would change J).
   bool would_block(const double* params) const {
     return any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
       if (is_one_dof(tree_.joint_type(j)))
         return one_dof_blocked(tree_.joint_type(j), tree_.limits(j), params[d], ws_.step[d]) &&
-               ws_.jacobian.col(c).head(rows_).any();
+               column_moves(c, j);
       glm::dvec3 normals[2];
       return ball_params_blocked(tree_.limits(j), params + d, ws_.step.data() + d, normals) > 0;
     });
@@ -584,7 +601,7 @@ class HierarchicalStep {
     any_limited_joint(tree_, ws_, cols_, [&](int j, int d, int c) {
       if (is_one_dof(tree_.joint_type(j))) {
         if (one_dof_blocked(tree_.joint_type(j), tree_.limits(j), params[d], ws_.step[d]) &&
-            ws_.jacobian.col(c).head(rows_).any()) {
+            column_moves(c, j)) {
           ws_.jacobian.col(c).head(rows_).setZero();
           changed = true;
         }
@@ -651,6 +668,13 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   const int n = tree.dof_count();
   HierarchicalStep model(tree, problem, ws);
   double* residual = ws.residual.data();
+  // Every FK pass goes through here: whether ws holds the FK of ws.params_trial (else of params,
+  // which changes only with an FK pass after it, or the best pose's return at the end).
+  bool fk_of_trial = false;
+  auto forward = [&](const double* p) {
+    tree_forward_kinematics(tree, p, ws);
+    fk_of_trial = p == ws.params_trial.data();
+  };
 
   // ws holds the FK of params (solve_tree() measured the start pose).
   TreeErrors current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), residual, nullptr);
@@ -691,7 +715,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     // joint on a bound): the trees' one escape (tree_common.hpp) - a straight knee on its limit is
     // a minimum no first-order step leaves, and neither is "down" for the hips above it.
     if (!tree_common::escape(tree, ws, model.columns(), status.escapes, params)) return false;
-    tree_forward_kinematics(tree, params, ws);
+    forward(params);
     current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), nullptr);
     residual = ws.residual.data();
     current_posture = posture_cost(tree, problem, params);
@@ -763,7 +787,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     double trial_posture = 0.0;
     if (trial_ok) {
       make_trial(tree, o, params, ws.step.data(), ws.params_trial.data());
-      tree_forward_kinematics(tree, ws.params_trial.data(), ws);
+      forward(ws.params_trial.data());
       trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = accept(trial, trial_posture);
@@ -772,7 +796,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         // ws.step now holds the correction: the trial moves by it (dof_vec_b keeps the first trial).
         ws.dof_vec_b = ws.params_trial;
         make_trial(tree, o, ws.dof_vec_b.data(), ws.step.data(), ws.params_trial.data());
-        tree_forward_kinematics(tree, ws.params_trial.data(), ws);
+        forward(ws.params_trial.data());
         trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
         trial_posture = posture_cost(tree, problem, ws.params_trial.data());
         trial_ok = accept(trial, trial_posture);
@@ -780,7 +804,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     }
     if (!trial_ok && chorded) {
       // The chord step fell short: a full step from a fresh J (the damping stays).
-      tree_forward_kinematics(tree, params, ws);
+      forward(params);
       if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
       tree_dof_axes(tree, params, ws);
       model.linearize();
@@ -840,7 +864,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         // them met; below kMinPostureGain it goes as far as the goals allow.
         if (!problem.posture.empty() && posture_gain > kMinPostureGain && !posture_spent) {
           posture_gain *= 0.25;
-          tree_forward_kinematics(tree, params, ws);  // ws holds the trial's FK
+          forward(params);  // ws holds the trial's FK
           continue;
         }
         status.reason = TerminationReason::kConverged;
@@ -855,10 +879,12 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       nu *= 2.0;
       posture_gain *= 0.5;
       // ws holds the trial's FK: the next step needs the accepted pose's (its J is kept).
-      tree_forward_kinematics(tree, params, ws);
+      forward(params);
     }
   }
-  if (better(best, best_posture, current, current_posture, strict)) std::copy(ws.params_best.data(), ws.params_best.data() + n, params);
+  const bool returns_best = better(best, best_posture, current, current_posture, strict);
+  if (returns_best) std::copy(ws.params_best.data(), ws.params_best.data() + n, params);
+  status.fk_of_params = fk_of_trial ? std::equal(params, params + n, ws.params_trial.data()) : !returns_best;
   return status;
 }
 

@@ -51,6 +51,9 @@ struct TreeSolverStatus {
   TerminationReason reason = TerminationReason::kStalled;
   int iterations = 0;
   int escapes = 0;  // stuck -> escape moves made (at most stuck::kMaxEscapes)
+  // ws holds the forward kinematics of the params returned: solve_tree() measures the result
+  // without a pass of its own (a warm frame's last trial is usually the pose returned).
+  bool fk_of_params = false;
 };
 
 TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
