@@ -18,6 +18,14 @@
 //  - Every BFGS cycle starts with a damped minimum-norm Gauss-Newton step
 //    d = J^T (J J^T + mu I)^-1 r instead of steepest descent: one m x m solve (m = 3 * goals,
 //    usually 3), O(m^2 n). Then H0 is scaled by eq. (6.20) from that first step.
+//  - The hybrid of Fletcher & Xu ("Hybrid methods for nonlinear least squares", IMA J. Numer.
+//    Anal. 7, 1987; Nocedal & Wright sec. 10.3): after a step that lowered f by at least
+//    kHybridGain of it (the problem behaves as a small-residual one, where Gauss-Newton converges
+//    quadratically), the next direction is Gauss-Newton's again; after a slower one, BFGS's. H
+//    keeps its secant updates from both kinds of step. Far from the goals a full pose (6 rows, 6 or 7
+//    DOF) took plain BFGS ~40 iterations; the Gauss-Newton steps halve that, which is what lets the
+//    shared far escapes (stuck.hpp) fit in a solve's iterations (issue 16, item 20:
+//    docs/robots-bench.md).
 //  - alpha = 1 is tried first (N&W §3.5: quasi-Newton steps are well scaled), capped so that no
 //    joint turns more than kFirstTrialRotation; f and grad f are evaluated together (one FK pass,
 //    the Jacobian is O(n m)), so the cubic zoom uses both ends' slopes.
@@ -67,6 +75,9 @@ namespace {
 // further, up to kMaxIterationRotation (or options.max_step_angle when set).
 constexpr double kFirstTrialRotation = 1.0;
 constexpr double kMaxIterationRotation = 3.14159265358979323846;
+// Fletcher & Xu's switch (their epsilon, 0.2 in the paper): a step that lowered f by at least this
+// fraction of it makes the next direction Gauss-Newton's (see the file comment).
+constexpr double kHybridGain = 0.2;
 
 using bfgs::symmetric_product;
 using Trial = bfgs::Trial<GoalErrors>;
@@ -258,6 +269,7 @@ class Bfgs {
   Trial kept_;
   bool jacobian_current_ = false;  // ws.jacobian / ws.residual are of x or of the kept point
   bool fresh_ = true;              // H must be (re)initialised: next direction is Gauss-Newton
+  bool gauss_newton_next_ = false; // the last step gained kHybridGain: next direction is Gauss-Newton, H kept
   uint64_t active_set_ = 0;        // frozen_signature() of the current BFGS cycle
   mutable int none_frozen_ = -1;   // none_frozen() at x: 1, 0, or -1 = not worked out yet
 };
@@ -302,6 +314,7 @@ bool Bfgs::escape() {
 
 // x <- the kept point; grad f <- its gradient; H updated with (s, y) when allowed.
 void Bfgs::accept(bool allow_update) {
+  const double cost_before = err_.cost;
   // s = x+ - x into ws.step, y = g+ - g into ws.gradient_trial.
   ws_.step = ws_.params_kept - x_;
   ws_.gradient_trial = ws_.dof_vec_a - ws_.gradient;
@@ -310,6 +323,7 @@ void Bfgs::accept(bool allow_update) {
   zero_frozen(ws_.gradient_trial);
   apply_step(chain_, ws_.step.data(), 0.0, x_.data());  // wraps ball rotation vectors to <= pi
   err_ = kept_.err;
+  gauss_newton_next_ = cost_before - err_.cost >= kHybridGain * cost_before;
   ws_.gradient = ws_.dof_vec_a;
   moved_x();
   bool wrapped = false;
@@ -317,10 +331,15 @@ void Bfgs::accept(bool allow_update) {
     if (x_[i] != ws_.params_kept[i]) wrapped = true;
   if (wrapped) {
     // The chart changed (and with it the gradient's coordinates): start a new BFGS cycle there.
+    // After a slow step (Fletcher & Xu: not a Gauss-Newton step next) the cycle starts from eq.
+    // (6.20)'s scaled identity of the pair just measured (in the old chart; a multiple of I does
+    // not depend on it): a Gauss-Newton step after every wrap crawled, 0.1 % a step, toward a
+    // ball chain's fold (Reasons.InsideTheInnerReachIsUnreachable).
     err_ = evaluate(x_.data(), ws_.gradient);
     moved_x();
     jacobian_current_ = true;
-    fresh_ = true;
+    fresh_ = gauss_newton_next_ || !allow_update ||
+             !bfgs::scaled_identity(ws_.dof_square, ws_.step, ws_.gradient_trial);
     return;
   }
   // The O(n^2) update is skipped once the budget is spent (the loop stops at its next check): on
@@ -366,12 +385,14 @@ SolverStatus Bfgs::run() {
     const uint64_t signature = frozen_signature();
     if (signature != active_set_) fresh_ = true;
     active_set_ = signature;
-    if (!fresh_) {
+    bool gauss_newton = fresh_ || gauss_newton_next_;
+    gauss_newton_next_ = false;
+    if (!gauss_newton) {
       if (!quasi_newton_direction()) break;  // the time budget: kMaxIterations
       // H can lose positive definiteness numerically; a non-descent direction restarts the cycle.
-      if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = true;
+      if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = gauss_newton = true;
     }
-    if (fresh_ && !gauss_newton_direction()) break;  // the time budget: kMaxIterations
+    if (gauss_newton && !gauss_newton_direction()) break;  // the time budget: kMaxIterations
     f0_ = err_.cost;
     dphi0_ = ws_.gradient.dot(ws_.step);
     const double rot = max_rotation(ws_.step);
@@ -384,7 +405,7 @@ SolverStatus Bfgs::run() {
     const double alpha_init = std::min({1.0, kFirstTrialRotation / rot, alpha_max});
 
     if (!line_search(alpha_init, alpha_max)) {
-      if (!fresh_) {
+      if (!gauss_newton) {
         fresh_ = true;  // retry from a Gauss-Newton step with a new H
         continue;
       }
