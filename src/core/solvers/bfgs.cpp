@@ -44,7 +44,8 @@
 // the shared stall rule, or a line search that fails even from a fresh Gauss-Newton step call the
 // shared escape, and the descent goes on from the moved pose with a new H; with no escape left the
 // solve stops as stalled at the best pose seen. Steps that creep (the stall rule's creeping()) call
-// the escape too when no restart follows, and with none left the descent goes on.
+// the escape too when no restart follows, and with none left the descent goes on. The verdict after
+// an accepted step is stuck::Loop's, shared with DLS (Creeps::kStuckOrLong) and the pseudo-inverse.
 //
 // Limits (a bounded variant of projection, documented choice). Hinge DOFs sitting on a bound with
 // the gradient pushing outward are frozen (removed from the direction, and from J for the
@@ -93,7 +94,7 @@ class Bfgs {
         n_(chain.dof_count()),
         rows_(3 * goals.size),
         x_(params, chain.dof_count()),
-        escapes_(chain, goals, options, ws) {}
+        loop_(chain, goals, options, ws, params, Restart{this}) {}
 
   SolverStatus run();
 
@@ -249,7 +250,8 @@ class Bfgs {
   }
 
   bool line_search(double alpha_init, double alpha_max);
-  bool escape();
+  bool escape() { return loop_.escape(err_.cost); }
+  double restart_after_escape();
   void accept(bool allow_update);
   void update_inverse_hessian();
 
@@ -260,8 +262,12 @@ class Bfgs {
   const int n_;
   const int rows_;
   Eigen::Map<Eigen::VectorXd> x_;
-  stuck::StallRule stall_;
-  stuck::Escapes escapes_;
+  // The shared stall rule and escapes (stuck.hpp); after an escape, restart_after_escape().
+  struct Restart {
+    Bfgs* bfgs;
+    double operator()() const { return bfgs->restart_after_escape(); }
+  };
+  stuck::Loop<Restart> loop_;
 
   GoalErrors err_;          // at x
   double f0_ = 0.0;         // f(x) at the start of the line search
@@ -302,14 +308,12 @@ bool Bfgs::line_search(double alpha_init, double alpha_max) {
   return search.run(alpha_init, alpha_max);
 }
 
-// Stuck at x: the shared escape moves x (true; a new BFGS cycle starts there) or none is left.
-bool Bfgs::escape() {
-  if (!escapes_.escape(x_.data(), err_.cost)) return false;
+// The shared escape moved x: a new BFGS cycle starts there. Returns the cost there.
+double Bfgs::restart_after_escape() {
   err_ = evaluate(x_.data(), ws_.gradient);
   jacobian_current_ = true;
   fresh_ = true;
-  stall_.reset(err_.cost);
-  return true;
+  return err_.cost;
 }
 
 // x <- the kept point; grad f <- its gradient; H updated with (s, y) when allowed.
@@ -362,15 +366,14 @@ SolverStatus Bfgs::run() {
   err_ = evaluate(x_.data(), ws_.gradient);
   jacobian_current_ = true;
   fresh_ = true;
-  stall_.reset(err_.cost);
-  escapes_.start_at(err_.cost);
+  loop_.start(err_.cost);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
     if (ws_.deadline.spent()) break;  // the time budget, checked before every iteration: kMaxIterations
     if (err_.within(options_)) {
       status.reason = TerminationReason::kConverged;
       status.iterations = it;
-      status.escapes = escapes_.used();
+      status.escapes = loop_.escapes().used();
       return status;
     }
     ws_.dof_vec_b = ws_.gradient;
@@ -413,25 +416,19 @@ SolverStatus Bfgs::run() {
       break;
     }
     accept(true);
-    if (stall_.stalled_after(err_.cost, options_.stall_tolerance)) {
-      if (escape()) continue;
-      break;
-    }
-    if (stall_.creeping() && escapes_.creep_is_stuck(x_.data())) {  // a creep the limits hold
-      if (escape()) continue;
-      break;  // no escape left: it would creep on in vain (stalled)
-    }
-    if (escapes_.creep_is_long(stall_) && escape()) continue;  // a long creep: escaped while it can
+    // The stall rule, a creep the limits hold (no escape left: stalled) or a long one, as DLS's.
+    const stuck::Verdict verdict = loop_.after_accepted(err_.cost, stuck::Creeps::kStuckOrLong);
+    if (verdict == stuck::Verdict::kEscaped) continue;
+    if (verdict == stuck::Verdict::kStalled) break;
   }
   status.iterations = it;
-  status.escapes = escapes_.used();
   if (err_.within(options_)) {
     status.reason = TerminationReason::kConverged;
-    return status;
+  } else {
+    status.reason = it >= options_.max_iterations || ws_.deadline.hit ? TerminationReason::kMaxIterations
+                                                                      : TerminationReason::kStalled;
   }
-  status.reason = it >= options_.max_iterations || ws_.deadline.hit ? TerminationReason::kMaxIterations
-                                                                    : TerminationReason::kStalled;
-  escapes_.restore_best(x_.data(), err_.cost);  // an escape that ended worse costs nothing
+  loop_.finish(status, err_.cost);  // an escape that ended worse costs nothing
   return status;
 }
 
