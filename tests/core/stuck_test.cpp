@@ -405,7 +405,7 @@ TEST(Stuck, RealArmPositionGoalsHeldByTheLimitsConvergeWithoutRestarts) {
          {pinv}},
         {{1.9961051755698325, -1.1734976511576602, 3.1113369110856226, -1.5297430085362973, -2.9534534897992888,
           0.59894120432056708},
-         {bfgs}},
+         {}},  // BFGS was trapped here; with Fletcher & Xu's Gauss-Newton steps it converges unescaped
         {{0.51719579538997706, 2.2512291294455036, 2.1401776530079957, -1.6031767864644881, 0.83526819470096569,
           -2.8688845489907115},
          {pinv, bfgs}}}}};

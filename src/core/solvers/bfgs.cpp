@@ -18,6 +18,14 @@
 //  - Every BFGS cycle starts with a damped minimum-norm Gauss-Newton step
 //    d = J^T (J J^T + mu I)^-1 r instead of steepest descent: one m x m solve (m = 3 * goals,
 //    usually 3), O(m^2 n). Then H0 is scaled by eq. (6.20) from that first step.
+//  - The hybrid of Fletcher & Xu ("Hybrid methods for nonlinear least squares", IMA J. Numer.
+//    Anal. 7, 1987; Nocedal & Wright sec. 10.3): after a step that lowered f by at least
+//    kHybridGain of it (the problem behaves as a small-residual one, where Gauss-Newton converges
+//    quadratically), the next direction is Gauss-Newton's again; after a slower one, BFGS's. H
+//    keeps its secant updates from both kinds of step. Far from the goals a full pose (6 rows, 6 or 7
+//    DOF) took plain BFGS ~40 iterations; the Gauss-Newton steps halve that, which is what lets the
+//    shared far escapes (stuck.hpp) fit in a solve's iterations (issue 16, item 20:
+//    docs/robots-bench.md).
 //  - alpha = 1 is tried first (N&W §3.5: quasi-Newton steps are well scaled), capped so that no
 //    joint turns more than kFirstTrialRotation; f and grad f are evaluated together (one FK pass,
 //    the Jacobian is O(n m)), so the cubic zoom uses both ends' slopes.
@@ -36,7 +44,8 @@
 // the shared stall rule, or a line search that fails even from a fresh Gauss-Newton step call the
 // shared escape, and the descent goes on from the moved pose with a new H; with no escape left the
 // solve stops as stalled at the best pose seen. Steps that creep (the stall rule's creeping()) call
-// the escape too when no restart follows, and with none left the descent goes on.
+// the escape too when no restart follows, and with none left the descent goes on. The verdict after
+// an accepted step is stuck::Loop's, shared with DLS (Creeps::kStuckOrLong) and the pseudo-inverse.
 //
 // Limits (a bounded variant of projection, documented choice). Hinge DOFs sitting on a bound with
 // the gradient pushing outward are frozen (removed from the direction, and from J for the
@@ -67,6 +76,9 @@ namespace {
 // further, up to kMaxIterationRotation (or options.max_step_angle when set).
 constexpr double kFirstTrialRotation = 1.0;
 constexpr double kMaxIterationRotation = 3.14159265358979323846;
+// Fletcher & Xu's switch (their epsilon, 0.2 in the paper): a step that lowered f by at least this
+// fraction of it makes the next direction Gauss-Newton's (see the file comment).
+constexpr double kHybridGain = 0.2;
 
 using bfgs::symmetric_product;
 using Trial = bfgs::Trial<GoalErrors>;
@@ -82,7 +94,7 @@ class Bfgs {
         n_(chain.dof_count()),
         rows_(3 * goals.size),
         x_(params, chain.dof_count()),
-        escapes_(chain, goals, options, ws) {}
+        loop_(chain, goals, options, ws, params, Restart{this}) {}
 
   SolverStatus run();
 
@@ -238,7 +250,8 @@ class Bfgs {
   }
 
   bool line_search(double alpha_init, double alpha_max);
-  bool escape();
+  bool escape() { return loop_.escape(err_.cost); }
+  double restart_after_escape();
   void accept(bool allow_update);
   void update_inverse_hessian();
 
@@ -249,8 +262,12 @@ class Bfgs {
   const int n_;
   const int rows_;
   Eigen::Map<Eigen::VectorXd> x_;
-  stuck::StallRule stall_;
-  stuck::Escapes escapes_;
+  // The shared stall rule and escapes (stuck.hpp); after an escape, restart_after_escape().
+  struct Restart {
+    Bfgs* bfgs;
+    double operator()() const { return bfgs->restart_after_escape(); }
+  };
+  stuck::Loop<Restart> loop_;
 
   GoalErrors err_;          // at x
   double f0_ = 0.0;         // f(x) at the start of the line search
@@ -258,6 +275,7 @@ class Bfgs {
   Trial kept_;
   bool jacobian_current_ = false;  // ws.jacobian / ws.residual are of x or of the kept point
   bool fresh_ = true;              // H must be (re)initialised: next direction is Gauss-Newton
+  bool gauss_newton_next_ = false; // the last step gained kHybridGain: next direction is Gauss-Newton, H kept
   uint64_t active_set_ = 0;        // frozen_signature() of the current BFGS cycle
   mutable int none_frozen_ = -1;   // none_frozen() at x: 1, 0, or -1 = not worked out yet
 };
@@ -290,18 +308,17 @@ bool Bfgs::line_search(double alpha_init, double alpha_max) {
   return search.run(alpha_init, alpha_max);
 }
 
-// Stuck at x: the shared escape moves x (true; a new BFGS cycle starts there) or none is left.
-bool Bfgs::escape() {
-  if (!escapes_.escape(x_.data(), err_.cost)) return false;
+// The shared escape moved x: a new BFGS cycle starts there. Returns the cost there.
+double Bfgs::restart_after_escape() {
   err_ = evaluate(x_.data(), ws_.gradient);
   jacobian_current_ = true;
   fresh_ = true;
-  stall_.reset(err_.cost);
-  return true;
+  return err_.cost;
 }
 
 // x <- the kept point; grad f <- its gradient; H updated with (s, y) when allowed.
 void Bfgs::accept(bool allow_update) {
+  const double cost_before = err_.cost;
   // s = x+ - x into ws.step, y = g+ - g into ws.gradient_trial.
   ws_.step = ws_.params_kept - x_;
   ws_.gradient_trial = ws_.dof_vec_a - ws_.gradient;
@@ -310,6 +327,7 @@ void Bfgs::accept(bool allow_update) {
   zero_frozen(ws_.gradient_trial);
   apply_step(chain_, ws_.step.data(), 0.0, x_.data());  // wraps ball rotation vectors to <= pi
   err_ = kept_.err;
+  gauss_newton_next_ = cost_before - err_.cost >= kHybridGain * cost_before;
   ws_.gradient = ws_.dof_vec_a;
   moved_x();
   bool wrapped = false;
@@ -317,10 +335,15 @@ void Bfgs::accept(bool allow_update) {
     if (x_[i] != ws_.params_kept[i]) wrapped = true;
   if (wrapped) {
     // The chart changed (and with it the gradient's coordinates): start a new BFGS cycle there.
+    // After a slow step (Fletcher & Xu: not a Gauss-Newton step next) the cycle starts from eq.
+    // (6.20)'s scaled identity of the pair just measured (in the old chart; a multiple of I does
+    // not depend on it): a Gauss-Newton step after every wrap crawled, 0.1 % a step, toward a
+    // ball chain's fold (Reasons.InsideTheInnerReachIsUnreachable).
     err_ = evaluate(x_.data(), ws_.gradient);
     moved_x();
     jacobian_current_ = true;
-    fresh_ = true;
+    fresh_ = gauss_newton_next_ || !allow_update ||
+             !bfgs::scaled_identity(ws_.dof_square, ws_.step, ws_.gradient_trial);
     return;
   }
   // The O(n^2) update is skipped once the budget is spent (the loop stops at its next check): on
@@ -343,15 +366,14 @@ SolverStatus Bfgs::run() {
   err_ = evaluate(x_.data(), ws_.gradient);
   jacobian_current_ = true;
   fresh_ = true;
-  stall_.reset(err_.cost);
-  escapes_.start_at(err_.cost);
+  loop_.start(err_.cost);
   int it = 0;
   for (; it < options_.max_iterations; ++it) {
     if (ws_.deadline.spent()) break;  // the time budget, checked before every iteration: kMaxIterations
     if (err_.within(options_)) {
       status.reason = TerminationReason::kConverged;
       status.iterations = it;
-      status.escapes = escapes_.used();
+      status.escapes = loop_.escapes().used();
       return status;
     }
     ws_.dof_vec_b = ws_.gradient;
@@ -366,12 +388,14 @@ SolverStatus Bfgs::run() {
     const uint64_t signature = frozen_signature();
     if (signature != active_set_) fresh_ = true;
     active_set_ = signature;
-    if (!fresh_) {
+    bool gauss_newton = fresh_ || gauss_newton_next_;
+    gauss_newton_next_ = false;
+    if (!gauss_newton) {
       if (!quasi_newton_direction()) break;  // the time budget: kMaxIterations
       // H can lose positive definiteness numerically; a non-descent direction restarts the cycle.
-      if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = true;
+      if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = gauss_newton = true;
     }
-    if (fresh_ && !gauss_newton_direction()) break;  // the time budget: kMaxIterations
+    if (gauss_newton && !gauss_newton_direction()) break;  // the time budget: kMaxIterations
     f0_ = err_.cost;
     dphi0_ = ws_.gradient.dot(ws_.step);
     const double rot = max_rotation(ws_.step);
@@ -384,7 +408,7 @@ SolverStatus Bfgs::run() {
     const double alpha_init = std::min({1.0, kFirstTrialRotation / rot, alpha_max});
 
     if (!line_search(alpha_init, alpha_max)) {
-      if (!fresh_) {
+      if (!gauss_newton) {
         fresh_ = true;  // retry from a Gauss-Newton step with a new H
         continue;
       }
@@ -392,25 +416,19 @@ SolverStatus Bfgs::run() {
       break;
     }
     accept(true);
-    if (stall_.stalled_after(err_.cost, options_.stall_tolerance)) {
-      if (escape()) continue;
-      break;
-    }
-    if (stall_.creeping() && escapes_.creep_is_stuck(x_.data())) {  // a creep the limits hold
-      if (escape()) continue;
-      break;  // no escape left: it would creep on in vain (stalled)
-    }
-    if (escapes_.creep_is_long(stall_) && escape()) continue;  // a long creep: escaped while it can
+    // The stall rule, a creep the limits hold (no escape left: stalled) or a long one, as DLS's.
+    const stuck::Verdict verdict = loop_.after_accepted(err_.cost, stuck::Creeps::kStuckOrLong);
+    if (verdict == stuck::Verdict::kEscaped) continue;
+    if (verdict == stuck::Verdict::kStalled) break;
   }
   status.iterations = it;
-  status.escapes = escapes_.used();
   if (err_.within(options_)) {
     status.reason = TerminationReason::kConverged;
-    return status;
+  } else {
+    status.reason = it >= options_.max_iterations || ws_.deadline.hit ? TerminationReason::kMaxIterations
+                                                                      : TerminationReason::kStalled;
   }
-  status.reason = it >= options_.max_iterations || ws_.deadline.hit ? TerminationReason::kMaxIterations
-                                                                    : TerminationReason::kStalled;
-  escapes_.restore_best(x_.data(), err_.cost);  // an escape that ended worse costs nothing
+  loop_.finish(status, err_.cost);  // an escape that ended worse costs nothing
   return status;
 }
 

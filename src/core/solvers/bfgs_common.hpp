@@ -44,6 +44,17 @@ inline bool symmetric_product(const Eigen::MatrixXd& H, const Eigen::VectorXd& x
   return true;
 }
 
+// H = (y^T s / y^T y) I, eq. (6.20), on the lower triangle; false (H untouched) when the curvature
+// y^T s is not positive.
+inline bool scaled_identity(Eigen::MatrixXd& H, const Eigen::VectorXd& s, const Eigen::VectorXd& y) {
+  const double sy = s.dot(y);
+  if (!(sy > 1e-12 * s.norm() * y.norm())) return false;
+  const int n = static_cast<int>(s.size());
+  for (int j = 0; j < n; ++j) H.col(j).tail(n - j).setZero();
+  H.diagonal().head(n).setConstant(sy / y.squaredNorm());
+  return true;
+}
+
 // Eq. (6.17) in place on the lower triangle of H, expanded so only H y is needed:
 //   H+ = H - rho (s (Hy)^T + (Hy) s^T) + (rho^2 y^T H y + rho) s s^T.
 // `fresh`: H is first set to eq. (6.20)'s (y^T s / y^T y) I (and `fresh` cleared); then H y = c y

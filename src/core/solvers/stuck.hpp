@@ -649,38 +649,86 @@ class Escapes {
 // the limits hold stops the solve). kStuckOrLong: one the limits hold (Escapes::creep_is_stuck; no
 // escape left: stalled) or a long one (Escapes::creep_is_long; no escape left: it goes on).
 enum class Creeps { kEvery, kStuckOrLong };
-// What an accepted step leads to (JacobianLoop::after_accepted).
+// What an accepted step leads to (Loop::after_accepted).
 enum class Verdict { kGoOn, kEscaped, kStalled };
 
-// The Jacobian solvers' loop around the rules above (DLS and the pseudo-inverse: dls.cpp,
-// jacobian_pinv.cpp): the stall rule and the escapes over one model (jacobian_common.hpp's
-// SinglePositionModel or GoalModel), the re-evaluation after an escape, the verdict after an
-// accepted step and the best pose at the end. Each solver keeps its own step; `restart` resets its
-// step state (DLS: the damping, the pseudo-inverse: the step fraction) after an escape. Holds
-// references only: allocates nothing.
+// Every Newton-like chain solver's loop around the rules above (the pseudo-inverse and DLS through
+// JacobianLoop below, BFGS directly: bfgs.cpp): the stall rule and the escapes over params, the
+// verdict after an accepted step, and the best pose at the end - one mechanism, so the solvers
+// differ only in their steps. `Moved` is called after an escape moved params: it evaluates the
+// solve there (and resets the solver's step state) and returns the cost there. Holds references
+// only: allocates nothing.
+template <class Moved>
+class Loop {
+ public:
+  Loop(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws, double* params,
+       Moved moved)
+      : options_(options), params_(params), moved_(moved), escapes_(chain, goals, options, ws) {}
+
+  // The solve starts at params, of cost `cost`.
+  void start(double cost) {
+    stall_.reset(cost);
+    escapes_.start_at(cost);
+  }
+
+  Escapes& escapes() { return escapes_; }
+
+  // Stuck at params, of cost `cost`: escape and start again there (true), or no escape left (false).
+  bool escape(double cost) {
+    if (!escapes_.escape(params_, cost)) return false;
+    stall_.reset(moved_());
+    return true;
+  }
+
+  // After a step was accepted into params, at `cost`: the stall rule and the creeps (see Creeps).
+  // kEscaped: params moved and Moved evaluated them; kStalled: stuck, no escape left; kGoOn: the
+  // solver goes on from the accepted step.
+  Verdict after_accepted(double cost, Creeps creeps) {
+    if (stall_.stalled_after(cost, options_.stall_tolerance))
+      return escape(cost) ? Verdict::kEscaped : Verdict::kStalled;
+    if (!stall_.creeping()) return Verdict::kGoOn;  // creep_is_long implies creeping too
+    if (creeps == Creeps::kEvery) {
+      if (escape(cost)) return Verdict::kEscaped;
+      // No escape left: a creep the limits hold would creep on in vain; any other is still progress.
+      return escapes_.creep_is_stuck(params_) ? Verdict::kStalled : Verdict::kGoOn;
+    }
+    if (escapes_.creep_is_stuck(params_)) return escape(cost) ? Verdict::kEscaped : Verdict::kStalled;
+    return escapes_.creep_is_long(stall_) && escape(cost) ? Verdict::kEscaped : Verdict::kGoOn;
+  }
+
+  // The solve's end at params, of cost `cost`: the escapes used, and params back at the best pose
+  // seen unless it converged.
+  void finish(SolverStatus& status, double cost) {
+    status.escapes = escapes_.used();
+    if (status.reason != TerminationReason::kConverged) escapes_.restore_best(params_, cost);
+  }
+
+ private:
+  const SolverOptions& options_;
+  double* params_;
+  Moved moved_;
+  StallRule stall_;
+  Escapes escapes_;
+};
+
+// The Jacobian solvers' Loop (DLS and the pseudo-inverse: dls.cpp, jacobian_pinv.cpp) over one
+// model (jacobian_common.hpp's SinglePositionModel or GoalModel): after an escape the model is
+// evaluated and linearised at the new pose, and `restart` resets the solver's step state (DLS: the
+// damping, the pseudo-inverse: the step fraction). Holds references only: allocates nothing.
 template <class Model, class Restart>
 class JacobianLoop {
  public:
   // The model is evaluated and linearised at params, the solve's start.
   JacobianLoop(const Chain& chain, Span<const Goal> goals, const SolverOptions& options, Workspace& ws,
                Model& model, double* params, Restart restart)
-      : options_(options), model_(model), params_(params), restart_(restart), stall_(model.cost()),
-        escapes_(chain, goals, options, ws) {
-    escapes_.start_at(model.cost());
+      : model_(model), loop_(chain, goals, options, ws, params, Relinearize{model, params, restart}) {
+    loop_.start(model.cost());
   }
 
-  Escapes& escapes() { return escapes_; }
+  Escapes& escapes() { return loop_.escapes(); }
 
   // Stuck at params: escape and start again there (true), or no escape left (false).
-  bool escape() {
-    if (!escapes_.escape(params_, model_.cost())) return false;
-    model_.evaluate(params_);
-    model_.accept();
-    model_.linearize(params_);
-    restart_();
-    stall_.reset(model_.cost());
-    return true;
-  }
+  bool escape() { return loop_.escape(model_.cost()); }
 
   // At a singular stationary point with error left (kSingularStationary; every step is zero
   // there): escapes while it can. Needs the model linearised at params.
@@ -689,34 +737,27 @@ class JacobianLoop {
       escape();
   }
 
-  // After a step was accepted into params, at `cost`: the stall rule and the creeps (see Creeps).
-  // kEscaped: params moved, the model is evaluated and linearised there; kStalled: stuck, no
-  // escape left; kGoOn: the solver goes on from the accepted step.
-  Verdict after_accepted(double cost, Creeps creeps) {
-    if (stall_.stalled_after(cost, options_.stall_tolerance)) return escape() ? Verdict::kEscaped : Verdict::kStalled;
-    if (!stall_.creeping()) return Verdict::kGoOn;  // creep_is_long implies creeping too
-    if (creeps == Creeps::kEvery) {
-      if (escape()) return Verdict::kEscaped;
-      // No escape left: a creep the limits hold would creep on in vain; any other is still progress.
-      return escapes_.creep_is_stuck(params_) ? Verdict::kStalled : Verdict::kGoOn;
-    }
-    if (escapes_.creep_is_stuck(params_)) return escape() ? Verdict::kEscaped : Verdict::kStalled;
-    return escapes_.creep_is_long(stall_) && escape() ? Verdict::kEscaped : Verdict::kGoOn;
-  }
+  // Loop::after_accepted.
+  Verdict after_accepted(double cost, Creeps creeps) { return loop_.after_accepted(cost, creeps); }
 
-  // The solve's end: the escapes used, and params back at the best pose seen unless it converged.
-  void finish(SolverStatus& status) {
-    status.escapes = escapes_.used();
-    if (status.reason != TerminationReason::kConverged) escapes_.restore_best(params_, model_.cost());
-  }
+  // Loop::finish at the model's cost.
+  void finish(SolverStatus& status) { loop_.finish(status, model_.cost()); }
 
  private:
-  const SolverOptions& options_;
+  struct Relinearize {
+    Model& model;
+    double* params;
+    Restart restart;
+    double operator()() {
+      model.evaluate(params);
+      model.accept();
+      model.linearize(params);
+      restart();
+      return model.cost();
+    }
+  };
   Model& model_;
-  double* params_;
-  Restart restart_;
-  StallRule stall_;
-  Escapes escapes_;
+  Loop<Relinearize> loop_;
 };
 
 }  // namespace stuck
