@@ -47,7 +47,7 @@ struct Deadline {
     calls = 0;
     hit = false;
     foreseen = false;
-    stretch = longest_stretch = 0.0;
+    stretch = longest_stretch = exit_stretch = 0.0;
     last_reading_us = start_us;
     longest_gap_us = setup_gap_us = 0.0;
     budget_readings = 0;
@@ -85,7 +85,10 @@ struct Deadline {
 
   // Work accounting (see the top): what a kernel adds, and the end of the solve's last stretch.
   void charge(double flops) { stretch += flops; }
-  void finish() { close_stretch(); }
+  void finish() {
+    exit_stretch = stretch;
+    close_stretch();
+  }
   // The approximate flops the charges use: one joint of an FK (or of a DOF-axis) pass, one entry of
   // a Jacobian, one joint's geometric fit (CCD, FABRIK).
   static constexpr double kFlopsPerJoint = 60.0, kFlopsPerJacobianEntry = 8.0, kFlopsPerFit = 400.0;
@@ -112,6 +115,7 @@ struct Deadline {
   double end_us = 0.0;
   double stretch = 0.0;          // flops charged since the last clock reading
   double longest_stretch = 0.0;  // the most flops between two readings since start()
+  double exit_stretch = 0.0;     // the flops after the last reading (the exit work), set by finish()
   bool foreseen = false;         // hit before end_us: the next stretch would have ended past bound_end_us
   double bound_end_us = 0.0;     // start + kBoundRatio x budget + kBoundSlackUs
   double last_reading_us = 0.0, longest_gap_us = 0.0;  // budget readings: the last, the longest gap between two
