@@ -465,8 +465,9 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   // here unless the solver measures it itself (solver_measures_start).
   make_start_pose(chain, options, params);
   // A budget can stop a solve before it moves: then the start pose comes back, already measured,
-  // and the exit work measures it no second time (below). Kept only when a budget or cap is set.
-  if (timed) ws.params_start = params;
+  // and the exit work measures it no second time (below). Kept only when a budget is set.
+  const bool budgeted = options.time_budget_usec > 0.0;
+  if (budgeted) ws.params_start = params;
   GoalErrors err;
   SolverStatus status;
   const bool self_measured = solver_measures_start(kind);
@@ -477,6 +478,11 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 
   if (!self_measured && err.within(options)) {
     status.reason = TerminationReason::kConverged;
+  } else if (!self_measured && ws.deadline.spent_before_solver()) {
+    // The budget is gone after the set-up, or the solver's own set-up (BFGS evaluates the start
+    // again with its gradient: 25-40 us on 600 DOF) would take it past the bound: the start pose,
+    // measured, with budget_exhausted (issue 16, item 6).
+    status.reason = TerminationReason::kMaxIterations;
   } else {
     status = run_solver(kind, chain, goals, options, ws, p);
     run_restarts(kind, chain, goals, options, ws, p, status, result.restarts);
@@ -516,7 +522,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   // moved, or it was put back): its errors are the start's. Measured by the dispatcher, they are
   // what a measure here would give; measured by the solver (DLS), they are trusted only where its
   // rounding cannot change the verdict (clear_of_tolerance), as for its final measure.
-  const bool unchanged = timed && !posed && status.reason != TerminationReason::kInvalidInput &&
+  const bool unchanged = budgeted && !posed && status.reason != TerminationReason::kInvalidInput &&
                          std::memcmp(p, ws.params_start.data(), sizeof(double) * chain.dof_count()) == 0 &&
                          (!self_measured || (status.start_measured &&
                                              clear_of_tolerance(chain, goals, options, status.start)));

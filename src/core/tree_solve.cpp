@@ -304,17 +304,23 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
 
   // A budget can stop a solve before it moves: then the start pose comes back, already measured
   // (its per-goal errors too), and the exit work measures it no second time (below).
-  if (timed) ws.params_start = params;
+  const bool budgeted = options.time_budget_usec > 0.0;
+  if (budgeted) ws.params_start = params;
   tree_forward_kinematics(tree, params.data(), ws);
   const TreeErrors start_errors =
-      tree_measure(tree, problem, options, ws, nullptr, nullptr, timed ? result.goal_error.data() : nullptr);
+      tree_measure(tree, problem, options, ws, nullptr, nullptr, budgeted ? result.goal_error.data() : nullptr);
   summary.initial_error = std::sqrt(2.0 * start_errors.cost);
   summary.initial_position_error = start_errors.max_position;
   summary.initial_orientation_error = start_errors.max_orientation;
 
   TreeSolverStatus status;
   status.reason = TerminationReason::kConverged;
-  if (!start_errors.all_met() || !problem.posture.empty()) status = run_tree_solver(kind, tree, problem, options, ws, params.data());
+  // The budget after the set-up, as solve() reads it: gone, or the solver's own set-up would take
+  // it past the bound, the start pose comes back, measured (issue 16, item 6).
+  if ((!start_errors.all_met() || !problem.posture.empty()) && !ws.deadline.spent_before_solver())
+    status = run_tree_solver(kind, tree, problem, options, ws, params.data());
+  else if (ws.deadline.hit)
+    status.reason = TerminationReason::kMaxIterations;
   summary.iterations = status.iterations;
   summary.escapes = status.escapes;
   summary.reason = status.reason;
@@ -330,7 +336,7 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   // The verdict from the pose returned, measured here: it cannot disagree with the pose. The start
   // pose, bit for bit, was measured at the start by the same code.
   const bool unchanged =
-      timed && std::memcmp(params.data(), ws.params_start.data(), sizeof(double) * tree.dof_count()) == 0;
+      budgeted && std::memcmp(params.data(), ws.params_start.data(), sizeof(double) * tree.dof_count()) == 0;
   if (!unchanged) tree_forward_kinematics(tree, params.data(), ws);
   const TreeErrors final_errors =
       unchanged ? start_errors : tree_measure(tree, problem, options, ws, nullptr, nullptr, result.goal_error.data());
