@@ -70,7 +70,7 @@ struct Deadline {
     last_reading_us = now;
     // The first reading has seen only the set-up (the start pose's FK and measure, a solver's first
     // linearisation): an iteration does more (kFirstStretchRatio of it), the exit work about as much.
-    // (The longest gap is this one's, or the dispatcher's set-up before it: spent_before_solver.)
+    // (The longest gap is this one's: the dispatcher's look measured a part of it.)
     if (first) setup_gap_us = gap;
     const double ahead = (first ? kFirstStretchRatio + 1.0 : 2.0) * longest_gap_us;
     if (now + ahead + kReserveUs <= bound_end_us) return false;
@@ -83,19 +83,19 @@ struct Deadline {
   // alone can use the budget, and a solver's own set-up (BFGS evaluates the start again with its
   // gradient) then ends past the bound before the solver's first reading. True when the budget is
   // spent, or when the set-up so far, (kFirstStretchRatio + 1) times again (the solver's set-up and
-  // first stretch, then the exit work), would end past the bound. Its gap counts as the longest so
-  // far, but it is not the solver's first reading: that one still applies the set-up rule, to the
-  // longest gap (the dispatcher's set-up or the solver's, whichever was longer). The charged work's
-  // stretch closes here, as at any reading. Without a budget (the cap alone) it reads no clock.
+  // first stretch, then the exit work), would end past the bound. A look: the solver's first reading
+  // still measures its gap from start(), the whole set-up, and applies the set-up rule to it (with
+  // the gap from this look it underestimated a first iteration: 1-iteration solves ran over; the
+  // charged work's stretch closes here, as at any reading). Without a budget (the cap alone) it
+  // reads no clock.
   bool spent_before_solver() {
     if (hit) return true;
     if (!active || !every_call) return false;
     close_stretch();
     const double now = now_us();
     if (now >= end_us) return hit = true;
-    const double gap = now - last_reading_us;
+    const double gap = now - last_reading_us;  // since start(): last_reading_us stays there
     longest_gap_us = std::max(longest_gap_us, gap);
-    last_reading_us = now;
     if (now + (kFirstStretchRatio + 1.0) * gap + kReserveUs <= bound_end_us) return false;
     foreseen = true;
     return hit = true;
