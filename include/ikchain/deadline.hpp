@@ -47,7 +47,7 @@ struct Deadline {
     calls = 0;
     hit = false;
     foreseen = false;
-    stretch = longest_stretch = 0.0;
+    stretch = longest_stretch = exit_stretch = 0.0;
     last_reading_us = start_us;
     longest_gap_us = setup_gap_us = 0.0;
     budget_readings = 0;
@@ -70,9 +70,33 @@ struct Deadline {
     last_reading_us = now;
     // The first reading has seen only the set-up (the start pose's FK and measure, a solver's first
     // linearisation): an iteration does more (kFirstStretchRatio of it), the exit work about as much.
+    // (The longest gap is this one's: the dispatcher's look measured a part of it.)
     if (first) setup_gap_us = gap;
-    const double ahead = first ? (kFirstStretchRatio + 1.0) * gap : 2.0 * longest_gap_us;
+    const double ahead = (first ? kFirstStretchRatio + 1.0 : 2.0) * longest_gap_us;
     if (now + ahead + kReserveUs <= bound_end_us) return false;
+    foreseen = true;
+    return hit = true;
+  }
+
+  // The dispatcher's reading between its set-up (validation, the start pose's projection, FK and
+  // measure) and the solver's (issue 16, item 6): on a long chain with a small budget the set-up
+  // alone can use the budget, and a solver's own set-up (BFGS evaluates the start again with its
+  // gradient) then ends past the bound before the solver's first reading. True when the budget is
+  // spent, or when the set-up so far, (kFirstStretchRatio + 1) times again (the solver's set-up and
+  // first stretch, then the exit work), would end past the bound. A look: the solver's first reading
+  // still measures its gap from start(), the whole set-up, and applies the set-up rule to it (with
+  // the gap from this look it underestimated a first iteration: 1-iteration solves ran over; the
+  // charged work's stretch closes here, as at any reading). Without a budget (the cap alone) it
+  // reads no clock.
+  bool spent_before_solver() {
+    if (hit) return true;
+    if (!active || !every_call) return false;
+    close_stretch();
+    const double now = now_us();
+    if (now >= end_us) return hit = true;
+    const double gap = now - last_reading_us;  // since start(): last_reading_us stays there
+    longest_gap_us = std::max(longest_gap_us, gap);
+    if (now + (kFirstStretchRatio + 1.0) * gap + kReserveUs <= bound_end_us) return false;
     foreseen = true;
     return hit = true;
   }
@@ -85,7 +109,10 @@ struct Deadline {
 
   // Work accounting (see the top): what a kernel adds, and the end of the solve's last stretch.
   void charge(double flops) { stretch += flops; }
-  void finish() { close_stretch(); }
+  void finish() {
+    exit_stretch = stretch;
+    close_stretch();
+  }
   // The approximate flops the charges use: one joint of an FK (or of a DOF-axis) pass, one entry of
   // a Jacobian, one joint's geometric fit (CCD, FABRIK).
   static constexpr double kFlopsPerJoint = 60.0, kFlopsPerJacobianEntry = 8.0, kFlopsPerFit = 400.0;
@@ -112,6 +139,7 @@ struct Deadline {
   double end_us = 0.0;
   double stretch = 0.0;          // flops charged since the last clock reading
   double longest_stretch = 0.0;  // the most flops between two readings since start()
+  double exit_stretch = 0.0;     // the flops after the last reading (the exit work), set by finish()
   bool foreseen = false;         // hit before end_us: the next stretch would have ended past bound_end_us
   double bound_end_us = 0.0;     // start + kBoundRatio x budget + kBoundSlackUs
   double last_reading_us = 0.0, longest_gap_us = 0.0;  // budget readings: the last, the longest gap between two

@@ -95,6 +95,7 @@ struct TreeWorkspace {
   Eigen::VectorXd step;           // dofs
   Eigen::VectorXd dof_vec_a, dof_vec_b, dof_scale;
   Eigen::VectorXd params_trial, params_best, params_backup;
+  Eigen::VectorXd params_start;   // dofs: a budget-bound solve's start pose, as measured (tree_solve.cpp)
   std::vector<int> goal_order;    // max_goals: goal indices by level
   std::vector<int> active_dofs;   // the DOF of each column
   std::vector<int> dof_column;    // dofs: the column of each DOF, or -1

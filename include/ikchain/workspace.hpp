@@ -50,6 +50,7 @@ struct Workspace {
   Eigen::MatrixXd dof_square;      // dofs x dofs, e.g. BFGS inverse Hessian
   std::vector<Goal> softened_goals;  // max_goals: the goals with SolverOptions::soft_reach applied
   Eigen::VectorXd params_backup;   // the caller's params, restored on failure
+  Eigen::VectorXd params_start;    // a budget-bound solve's start pose, as measured (solve.cpp)
   Eigen::VectorXd params_trial;
   Eigen::VectorXd params_best;   // the best pose a solve has seen (solvers/stuck.hpp)
   Eigen::VectorXd params_kept;   // BFGS: the line search's best acceptable point

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <cstring>
 #include <cmath>
 
 #include "core/kinematics_internal.hpp"
@@ -43,7 +44,7 @@ using stuck::provably_out_of_reach;
 // the objective (J^T e vanishes) on a chain without limits (limits make constrained optima
 // non-stationary). Every other non-converged stop - a local minimum of reachable goals included -
 // is "stalled" (or the solver's kMaxIterations). Needs ws to hold the forward kinematics of
-// params, and `err` their measured errors (solve() has both at hand for the final pose).
+// params (or fk_current false: it computes them), and `err` their measured errors.
 // SolverOptions::soft_reach: `goals` copied into `out` (same order), each position goal's target
 // that lies within soft_reach of its effector's full reach pulled toward the root joint's origin
 // (options.hpp gives the curve). Returns the largest pull (m).
@@ -67,7 +68,7 @@ double soften_goals(const Chain& chain, Span<const Goal> goals, double soft_reac
 }
 
 bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
-                   Workspace& ws, const double* params, const GoalErrors& err) {
+                   Workspace& ws, const double* params, const GoalErrors& err, bool fk_current) {
   if (!provably_out_of_reach(chain, goals, options.position_tolerance)) return false;
   if (goals.size == 1 && goals[0].kind == GoalKind::kPosition &&
       resolve_effector(chain, goals[0].effector) == chain.joint_count()) {
@@ -75,6 +76,7 @@ bool is_best_reach(const Chain& chain, Span<const Goal> goals, const SolverOptio
   }
   if (chain.any_limits()) return false;
   const int rows = 3 * goals.size;
+  if (!fk_current) forward_kinematics(chain, params, ws);
   compute_dof_axes(chain, params, ws);
   auto J = ws.jacobian.topRows(rows);
   auto e = ws.residual.head(rows);
@@ -169,6 +171,16 @@ bool within_beyond_rounding(const Chain& chain, Span<const Goal> goals, const So
   return e.max_position + slack <= o.position_tolerance && e.max_orientation + 1e-12 <= o.orientation_tolerance;
 }
 
+// True when a measurement of the final pose is within tolerance, or outside it, by more than
+// that rounding: measuring again could not change the verdict.
+bool clear_of_tolerance(const Chain& chain, Span<const Goal> goals, const SolverOptions& o, const GoalErrors& e) {
+  if (within_beyond_rounding(chain, goals, o, e)) return true;
+  double scale = chain.total_length() + glm::length(chain.root_in_base());
+  for (int i = 0; i < goals.size; ++i)
+    if (goals[i].kind == GoalKind::kPosition) scale = std::max(scale, glm::length(goals[i].target_position));
+  return e.max_position - 1e-12 * scale > o.position_tolerance || e.max_orientation - 1e-12 > o.orientation_tolerance;
+}
+
 using SolveFn = SolverStatus (*)(const Chain&, Span<const Goal>, const SolverOptions&, Workspace&, double*);
 
 // The solver table (solve.hpp) and the function of each row, in SolverKind order.
@@ -249,6 +261,9 @@ void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (options.max_restarts <= 0 || kind == SolverKind::kTwoBone) return;
   if (status.reason == TerminationReason::kConverged || status.reason == TerminationReason::kInvalidInput) return;
   if (provably_out_of_reach(chain, goals, options.position_tolerance)) return;
+  // The budget first: spent, no restart runs, and the last run's pose needs no FK pass to be
+  // measured here (on 600 DOF the pass and the measure cost 5-8 us of the exit work, issue 16 item 6).
+  if (ws.deadline.hit || ws.deadline.spent()) return;
   const int dofs = chain.dof_count();
   SplitMix64 rng{options.restart_seed};
   forward_kinematics(chain, p, ws);
@@ -261,7 +276,9 @@ void run_restarts(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   // p holds the last run's end; a restart after a fresh draw first tries that end wrapped across
   // its bounds (wrap_bound_hinges), then draws again: alternating, so a wrap never repeats itself.
   bool last_was_wrap = false;
-  while (restarts < options.max_restarts && !ws.deadline.hit && !ws.deadline.spent()) {
+  // The budget is read before each restart: above for the first, at the loop's end for the others.
+  for (bool first = true; restarts < options.max_restarts; first = false) {
+    if (!first && (ws.deadline.hit || ws.deadline.spent())) break;
     ++restarts;
     if (!last_was_wrap && wrap_bound_hinges(chain, p)) {
       last_was_wrap = true;
@@ -447,6 +464,10 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured
   // here unless the solver measures it itself (solver_measures_start).
   make_start_pose(chain, options, params);
+  // A budget can stop a solve before it moves: then the start pose comes back, already measured,
+  // and the exit work measures it no second time (below). Kept only when a budget is set.
+  const bool budgeted = options.time_budget_usec > 0.0;
+  if (budgeted) ws.params_start = params;
   GoalErrors err;
   SolverStatus status;
   const bool self_measured = solver_measures_start(kind);
@@ -457,6 +478,11 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 
   if (!self_measured && err.within(options)) {
     status.reason = TerminationReason::kConverged;
+  } else if (!self_measured && ws.deadline.spent_before_solver()) {
+    // The budget is gone after the set-up, or the solver's own set-up (BFGS evaluates the start
+    // again with its gradient: 25-40 us on 600 DOF) would take it past the bound: the start pose,
+    // measured, with budget_exhausted (issue 16, item 6).
+    status.reason = TerminationReason::kMaxIterations;
   } else {
     status = run_solver(kind, chain, goals, options, ws, p);
     run_restarts(kind, chain, goals, options, ws, p, status, result.restarts);
@@ -492,11 +518,23 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
 
   const bool trust_final = status.final_measured && !restored && !posed &&
                            within_beyond_rounding(chain, goals, options, status.final);
-  if (trust_final) {
+  // The pose the solve returns is the start pose, bit for bit (the budget stopped it before it
+  // moved, or it was put back): its errors are the start's. Measured by the dispatcher, they are
+  // what a measure here would give; measured by the solver (DLS), they are trusted only where its
+  // rounding cannot change the verdict (clear_of_tolerance), as for its final measure.
+  const bool unchanged = budgeted && !posed && status.reason != TerminationReason::kInvalidInput &&
+                         std::memcmp(p, ws.params_start.data(), sizeof(double) * chain.dof_count()) == 0 &&
+                         (!self_measured || (status.start_measured &&
+                                             clear_of_tolerance(chain, goals, options, status.start)));
+  bool fk_current = false;
+  if (unchanged) {
+    err = start_err;
+  } else if (trust_final) {
     err = status.final;
   } else {
     forward_kinematics(chain, p, ws);
     err = measure_goals(chain, goals, ws);
+    fk_current = true;
   }
   if (!restored && !(err.cost <= start_err.cost)) {
     // Never worse than the start by the solve's own objective (or non-finite): a solver that ends
@@ -506,6 +544,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     make_start_pose(chain, options, params);
     forward_kinematics(chain, p, ws);
     err = measure_goals(chain, goals, ws);
+    fk_current = true;
   }
   result.final_error = err.combined;
   result.final_position_error = err.max_position;
@@ -513,7 +552,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   if (result.reason != TerminationReason::kInvalidInput) {
     if (err.within(options))
       result.reason = TerminationReason::kConverged;
-    else if (is_best_reach(chain, goals, options, ws, p, err))
+    else if (is_best_reach(chain, goals, options, ws, p, err, fk_current))
       result.reason = TerminationReason::kUnreachable;
     else if (result.reason == TerminationReason::kConverged)
       result.reason = TerminationReason::kStalled;  // a claim the measurement does not confirm

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 #include "core/kinematics_internal.hpp"
 #include "ikchain/so3.hpp"
@@ -36,6 +37,7 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   params_trial.setZero(dofs);
   params_best.setZero(dofs);
   params_backup.setZero(dofs);
+  params_start.setZero(dofs);
   goal_order.assign(max_goals, 0);
   active_dofs.assign(dofs, 0);
   dof_column.assign(dofs, -1);
@@ -300,8 +302,13 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   if (!options.warm_start) params.setZero();
   project_tree_to_limits(tree, params.data());
 
+  // A budget can stop a solve before it moves: then the start pose comes back, already measured
+  // (its per-goal errors too), and the exit work measures it no second time (below).
+  const bool budgeted = options.time_budget_usec > 0.0;
+  if (budgeted) ws.params_start = params;
   tree_forward_kinematics(tree, params.data(), ws);
-  const TreeErrors start_errors = tree_measure(tree, problem, options, ws, nullptr, nullptr, nullptr);
+  const TreeErrors start_errors =
+      tree_measure(tree, problem, options, ws, nullptr, nullptr, budgeted ? result.goal_error.data() : nullptr);
   summary.initial_error = std::sqrt(2.0 * start_errors.cost);
   summary.initial_position_error = start_errors.max_position;
   summary.initial_orientation_error = start_errors.max_orientation;
@@ -309,7 +316,12 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   TreeSolverStatus status;
   status.reason = TerminationReason::kConverged;
   status.fk_of_params = true;  // when no solver runs: the start pose's FK above
-  if (!start_errors.all_met() || !problem.posture.empty()) status = run_tree_solver(kind, tree, problem, options, ws, params.data());
+  // The budget after the set-up, as solve() reads it: gone, or the solver's own set-up would take
+  // it past the bound, the start pose comes back, measured (issue 16, item 6).
+  if ((!start_errors.all_met() || !problem.posture.empty()) && !ws.deadline.spent_before_solver())
+    status = run_tree_solver(kind, tree, problem, options, ws, params.data());
+  else if (ws.deadline.hit)
+    status.reason = TerminationReason::kMaxIterations;
   summary.iterations = status.iterations;
   summary.escapes = status.escapes;
   summary.reason = status.reason;
@@ -323,10 +335,14 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   }
   summary.budget_exhausted = ws.deadline.hit;
 
-  // The verdict from the pose returned, measured here: it cannot disagree with the pose.
-  if (!status.fk_of_params) tree_forward_kinematics(tree, params.data(), ws);
+  // The verdict from the pose returned, measured here: it cannot disagree with the pose. The start
+  // pose, bit for bit, was measured at the start by the same code; a solver whose last FK pass was
+  // of the pose returned leaves nothing to recompute but the measure.
+  const bool unchanged =
+      budgeted && std::memcmp(params.data(), ws.params_start.data(), sizeof(double) * tree.dof_count()) == 0;
+  if (!unchanged && !status.fk_of_params) tree_forward_kinematics(tree, params.data(), ws);
   const TreeErrors final_errors =
-      tree_measure(tree, problem, options, ws, nullptr, nullptr, result.goal_error.data());
+      unchanged ? start_errors : tree_measure(tree, problem, options, ws, nullptr, nullptr, result.goal_error.data());
   summary.final_error = std::sqrt(2.0 * final_errors.cost);
   summary.final_position_error = final_errors.max_position;
   summary.final_orientation_error = final_errors.max_orientation;

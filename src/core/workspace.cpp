@@ -21,7 +21,7 @@ void Workspace::reset(const Chain& chain, int goals) {
   goal_square.setZero(rows, rows);
   goal_vec.setZero(rows);
   dof_square.setZero(dofs, dofs);
-  for (Eigen::VectorXd* v : {&params_backup, &params_trial, &params_best, &params_kept, &params_restart_best, &step, &gradient,
+  for (Eigen::VectorXd* v : {&params_backup, &params_start, &params_trial, &params_best, &params_kept, &params_restart_best, &step, &gradient,
                              &gradient_trial, &dof_vec_a, &dof_vec_b})
     v->setZero(dofs);
   softened_goals.assign(max_goals, Goal());
