@@ -190,6 +190,7 @@ bool any_limited_joint(const Tree& tree, const TreeWorkspace& ws, int columns, V
 // The column-block kernels (Cols, the right-looking Cholesky, the triangular solves, the Gram
 // update) are core/math/linalg.hpp's.
 using linalg::Cols;
+using linalg::Pair;
 using linalg::cols_of;
 using linalg::cholesky_lower;
 using linalg::lower_solve;
@@ -518,19 +519,25 @@ class HierarchicalStep {
         const int eb = problem_.goals[ws_.goal_order[b]].goal.effector;
         const int* sb = tree_.support_list(eb);
         const int common_end = std::min(na, tree_.support_count(eb));
-        double b00 = 0, b01 = 0, b02 = 0, b10 = 0, b11 = 0, b12 = 0, b20 = 0, b21 = 0, b22 = 0;
+        // Two entries per operation (linalg::Pair): (b00, b10), (b01, b11), (b02, b12), (b20, b21),
+        // then b22 alone; each entry gets the same products added in the same order as a scalar
+        // sum, so it rounds as one.
+        Pair p0 = Pair::Zero(), p1 = Pair::Zero(), p2 = Pair::Zero(), q = Pair::Zero();
+        double b22 = 0.0;
         auto add_columns = [&](int c, int width) {
           for (int k = 0; k < width; ++k) {
             const double* col = J + (c + k) * ld;
-            const double a0 = col[3 * a], a1 = col[3 * a + 1], a2 = col[3 * a + 2];
-            const double c0 = col[3 * b], c1 = col[3 * b + 1], c2 = col[3 * b + 2];
-            b00 += a0 * c0, b01 += a0 * c1, b02 += a0 * c2;
-            b10 += a1 * c0, b11 += a1 * c1, b12 += a1 * c2;
-            b20 += a2 * c0, b21 += a2 * c1, b22 += a2 * c2;
+            const Pair a01 = linalg::load2(col + 3 * a), c01 = linalg::load2(col + 3 * b);
+            const double a2 = col[3 * a + 2], c0 = col[3 * b], c1 = col[3 * b + 1], c2 = col[3 * b + 2];
+            p0 += a01 * Pair::Constant(c0);
+            p1 += a01 * Pair::Constant(c1);
+            p2 += a01 * Pair::Constant(c2);
+            q += Pair::Constant(a2) * c01;
+            b22 += a2 * c2;
           }
         };
         for (int s = 0; s < common_end && sa[s] == sb[s]; ++s) for_each_joint_run(sa[s], add_columns);
-        const double block[3][3] = {{b00, b01, b02}, {b10, b11, b12}, {b20, b21, b22}};
+        const double block[3][3] = {{p0[0], p1[0], p2[0]}, {p0[1], p1[1], p2[1]}, {q[0], q[1], b22}};
         for (int i = 0; i < 3; ++i)
           for (int k = 0; k < 3; ++k) {
             M(3 * a + i, 3 * b + k) = block[i][k];
