@@ -100,6 +100,13 @@ struct TreeWorkspace {
   std::vector<int> active_dofs;   // the DOF of each column
   std::vector<int> dof_column;    // dofs: the column of each DOF, or -1
   std::vector<int> dof_joint;     // dofs: the joint each DOF belongs to (-1: a floating root's translation)
+  // Each goal's support columns (row k / 3 in level order) as runs of adjacent columns, root first:
+  // goal k's runs are (support_runs[2 r], support_runs[2 r + 1]) = (first column, width) for r in
+  // [run_begin[k], run_begin[k + 1]); shared_columns[a * goals + b] (b <= a): how many of goal a's
+  // columns, from its first, goals a and b share.
+  std::vector<int> support_runs;  // 2 * max_goals * (joints + 1)
+  std::vector<int> run_begin;     // max_goals + 1
+  std::vector<int> shared_columns;  // max_goals^2
 
   // The weighted-sum solvers (BFGS, CCD, FABRIK; solvers/tree_common.hpp).
   Eigen::MatrixXd dof_square;     // dofs x dofs: BFGS's inverse Hessian (lower triangle)

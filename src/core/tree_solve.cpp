@@ -42,6 +42,9 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   active_dofs.assign(dofs, 0);
   dof_column.assign(dofs, -1);
   dof_joint.assign(dofs, -1);
+  support_runs.assign(2 * max_goals * (joints + 1), 0);
+  run_begin.assign(max_goals + 1, 0);
+  shared_columns.assign(max_goals * max_goals, 0);
   dof_square.setZero(dofs, dofs);
   gradient.setZero(dofs);
   gradient_trial.setZero(dofs);

@@ -235,6 +235,40 @@ class HierarchicalStep {
       ws.dof_scale[cols_] = 1.0 / std::sqrt(cost);
       ++cols_;
     }
+    // Each goal's support columns as runs of adjacent columns (for_each_support_run()'s runs, the
+    // adjacent ones joined: the same columns in the same order), and the columns each pair of goals
+    // shares (their supports' common prefix): what gram(), rows_times() and add_rows_transpose()
+    // walk, so they do not look up the tree's support lists at every call.
+    const int goals = problem.goals.size;
+    int* runs = ws.support_runs.data();
+    int r = 0;
+    for (int k = 0; k < goals; ++k) {
+      ws.run_begin[k] = r;
+      for_each_support_run(k, [&](int c0, int width) {
+        if (r > ws.run_begin[k] && runs[2 * r - 2] + runs[2 * r - 1] == c0) {
+          runs[2 * r - 1] += width;
+        } else {
+          runs[2 * r] = c0;
+          runs[2 * r + 1] = width;
+          ++r;
+        }
+      });
+    }
+    ws.run_begin[goals] = r;
+    for (int a = 0; a < goals; ++a) {
+      const int ea = problem.goals[ws.goal_order[a]].goal.effector;
+      const int* sa = tree.support_list(ea);
+      const int na = tree.support_count(ea);
+      for (int b = 0; b <= a; ++b) {
+        const int eb = problem.goals[ws.goal_order[b]].goal.effector;
+        const int* sb = tree.support_list(eb);
+        const int common_end = std::min(na, tree.support_count(eb));
+        int shared = 0;
+        for (int s = 0; s < common_end && sa[s] == sb[s]; ++s)
+          for_each_joint_run(sa[s], [&](int, int width) { shared += width; });
+        ws.shared_columns[a * goals + b] = shared;
+      }
+    }
   }
 
   int columns() const { return cols_; }
@@ -451,14 +485,16 @@ class HierarchicalStep {
   void rows_times(int first, int count, const double* x, double* out) const {
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
+    const int* runs = ws_.support_runs.data();
     for (int k = first / 3; k < (first + count) / 3; ++k) {
       double o0 = 0.0, o1 = 0.0, o2 = 0.0;
-      for_each_support_run(k, [&](int c0, int width) {
-        for (int c = c0; c < c0 + width; ++c) {
+      for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
+        const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
+        for (int c = c0; c < c1; ++c) {
           const double* col = J + c * ld + 3 * k;
           o0 += col[0] * x[c], o1 += col[1] * x[c], o2 += col[2] * x[c];
         }
-      });
+      }
       double* o = out + 3 * k - first;
       o[0] = o0, o[1] = o1, o[2] = o2;
     }
@@ -467,15 +503,17 @@ class HierarchicalStep {
   void add_rows_transpose(int first, int count, const double* x, double sign, double* y) const {
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
+    const int* runs = ws_.support_runs.data();
     for (int k = first / 3; k < (first + count) / 3; ++k) {
       const double* xk = x + 3 * k - first;
       const double x0 = sign * xk[0], x1 = sign * xk[1], x2 = sign * xk[2];
-      for_each_support_run(k, [&](int c0, int width) {
-        for (int c = c0; c < c0 + width; ++c) {
+      for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
+        const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
+        for (int c = c0; c < c1; ++c) {
           const double* col = J + c * ld + 3 * k;
           y[c] += col[0] * x0 + col[1] * x1 + col[2] * x2;
         }
-      });
+      }
     }
   }
 
@@ -511,14 +549,9 @@ class HierarchicalStep {
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int goals = problem_.goals.size;
+    const int* runs = ws_.support_runs.data();
     for (int a = 0; a < goals; ++a) {
-      const int ea = problem_.goals[ws_.goal_order[a]].goal.effector;
-      const int* sa = tree_.support_list(ea);
-      const int na = tree_.support_count(ea);
       for (int b = 0; b <= a; ++b) {
-        const int eb = problem_.goals[ws_.goal_order[b]].goal.effector;
-        const int* sb = tree_.support_list(eb);
-        const int common_end = std::min(na, tree_.support_count(eb));
         // Two entries per operation (linalg::Pair): (b00, b10), (b01, b11), (b02, b12), (b20, b21),
         // then b22 alone; each entry gets the same products added in the same order as a scalar
         // sum, so it rounds as one.
@@ -536,7 +569,12 @@ class HierarchicalStep {
             b22 += a2 * c2;
           }
         };
-        for (int s = 0; s < common_end && sa[s] == sb[s]; ++s) for_each_joint_run(sa[s], add_columns);
+        // Goal a's first shared_columns columns: the runs of the supports' common prefix.
+        for (int r = ws_.run_begin[a], left = ws_.shared_columns[a * goals + b]; left > 0; ++r) {
+          const int width = std::min(runs[2 * r + 1], left);
+          add_columns(runs[2 * r], width);
+          left -= width;
+        }
         const double block[3][3] = {{p0[0], p1[0], p2[0]}, {p0[1], p1[1], p2[1]}, {q[0], q[1], b22}};
         for (int i = 0; i < 3; ++i)
           for (int k = 0; k < 3; ++k) {
