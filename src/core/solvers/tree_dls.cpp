@@ -400,13 +400,17 @@ class HierarchicalStep {
         subtract_gram_of_columns(W, b, m, S);
       }
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
-      for (int j = 0; j < m; ++j)
-        for (int i = j; i < m; ++i) K(i, j) = S(i, j) + (i == j ? mu : 0.0);
+      for (int j = 0; j < m; ++j) {  // S + mu I (+ 0.0 off the diagonal, as S + 0 I rounds)
+        K(j, j) = S(j, j) + mu;
+        for (int i = j + 1; i < m; ++i) K(i, j) = S(i, j) + 0.0;
+      }
       cholesky_lower(K, m, kMinPivot2);
       if (l + 1 < served_ || (factored_posture_ && l + 1 == levels_.count)) {
         const Cols D = cols_of(F.block(b, b, m, m));  // F's block row: [W^T (in place), D]
-        for (int j = 0; j < m; ++j)
-          for (int i = j; i < m; ++i) D(i, j) = S(i, j) + (i == j ? ridge : 0.0);
+        for (int j = 0; j < m; ++j) {
+          D(j, j) = S(j, j) + ridge;
+          for (int i = j + 1; i < m; ++i) D(i, j) = S(i, j) + 0.0;
+        }
         cholesky_lower(D, m, kMinPivot2);
       }
     }
@@ -550,6 +554,7 @@ class HierarchicalStep {
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int goals = problem_.goals.size;
     const int* runs = ws_.support_runs.data();
+    const Eigen::Index ld_m = M.outerStride();
     for (int a = 0; a < goals; ++a) {
       for (int b = 0; b <= a; ++b) {
         // Two entries per operation (linalg::Pair): (b00, b10), (b01, b11), (b02, b12), (b20, b21),
@@ -575,12 +580,15 @@ class HierarchicalStep {
           add_columns(runs[2 * r], width);
           left -= width;
         }
-        const double block[3][3] = {{p0[0], p1[0], p2[0]}, {p0[1], p1[1], p2[1]}, {q[0], q[1], b22}};
-        for (int i = 0; i < 3; ++i)
-          for (int k = 0; k < 3; ++k) {
-            M(3 * a + i, 3 * b + k) = block[i][k];
-            M(3 * b + k, 3 * a + i) = block[i][k];
-          }
+        // Block (a, b) only: factor() reads M's lower triangle alone (b <= a; a diagonal block's
+        // upper entries are written too, and never read).
+        double* m = &M(3 * a, 3 * b);
+        linalg::store2(m, p0);
+        linalg::store2(m + ld_m, p1);
+        linalg::store2(m + 2 * ld_m, p2);
+        m[2] = q[0];
+        m[2 + ld_m] = q[1];
+        m[2 + 2 * ld_m] = b22;
       }
     }
   }
