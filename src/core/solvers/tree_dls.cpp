@@ -484,13 +484,33 @@ class HierarchicalStep {
     const int* support = tree_.support_list(e);
     for (int s = 0; s < tree_.support_count(e); ++s) for_each_joint_run(support[s], f);
   }
+  // Goals k and l (in level order) act on one effector: their supports, and runs, are the same.
+  bool same_effector(int k, int l) const {
+    return problem_.goals[ws_.goal_order[k]].goal.effector == problem_.goals[ws_.goal_order[l]].goal.effector;
+  }
   // out[i] = (row first + i of J) . x for the `count` rows from `first` (whole goals), over the
   // supports only: a foot's rows touch the hips and one leg, a few of the tree's columns.
   void rows_times(int first, int count, const double* x, double* out) const {
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int* runs = ws_.support_runs.data();
-    for (int k = first / 3; k < (first + count) / 3; ++k) {
+    const int end = (first + count) / 3;
+    for (int k = first / 3; k < end; ++k) {
+      if (k + 1 < end && same_effector(k, k + 1)) {  // two goals on one effector: one pass
+        double o0 = 0.0, o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
+        for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
+          const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
+          for (int c = c0; c < c1; ++c) {
+            const double* col = J + c * ld + 3 * k;
+            o0 += col[0] * x[c], o1 += col[1] * x[c], o2 += col[2] * x[c];
+            o3 += col[3] * x[c], o4 += col[4] * x[c], o5 += col[5] * x[c];
+          }
+        }
+        double* o = out + 3 * k - first;
+        o[0] = o0, o[1] = o1, o[2] = o2, o[3] = o3, o[4] = o4, o[5] = o5;
+        ++k;
+        continue;
+      }
       double o0 = 0.0, o1 = 0.0, o2 = 0.0;
       for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
         const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
@@ -508,9 +528,23 @@ class HierarchicalStep {
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int* runs = ws_.support_runs.data();
-    for (int k = first / 3; k < (first + count) / 3; ++k) {
+    const int end = (first + count) / 3;
+    for (int k = first / 3; k < end; ++k) {
       const double* xk = x + 3 * k - first;
       const double x0 = sign * xk[0], x1 = sign * xk[1], x2 = sign * xk[2];
+      if (k + 1 < end && same_effector(k, k + 1)) {  // two goals on one effector: one pass, y[c]
+        const double x3 = sign * xk[3], x4 = sign * xk[4], x5 = sign * xk[5];  // gets k's, then k + 1's
+        for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
+          const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
+          for (int c = c0; c < c1; ++c) {
+            const double* col = J + c * ld + 3 * k;
+            const double yk = y[c] + (col[0] * x0 + col[1] * x1 + col[2] * x2);
+            y[c] = yk + (col[3] * x3 + col[4] * x4 + col[5] * x5);
+          }
+        }
+        ++k;
+        continue;
+      }
       for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
         const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
         for (int c = c0; c < c1; ++c) {
