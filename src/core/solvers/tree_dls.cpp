@@ -589,41 +589,70 @@ class HierarchicalStep {
     const int goals = problem_.goals.size;
     const int* runs = ws_.support_runs.data();
     const Eigen::Index ld_m = M.outerStride();
-    for (int a = 0; a < goals; ++a) {
-      for (int b = 0; b <= a; ++b) {
-        // Two entries per operation (linalg::Pair): (b00, b10), (b01, b11), (b02, b12), (b20, b21),
-        // then b22 alone; each entry gets the same products added in the same order as a scalar
-        // sum, so it rounds as one.
-        Pair p0 = Pair::Zero(), p1 = Pair::Zero(), p2 = Pair::Zero(), q = Pair::Zero();
-        double b22 = 0.0;
-        auto add_columns = [&](int c, int width) {
-          for (int k = 0; k < width; ++k) {
-            const double* col = J + (c + k) * ld;
-            const Pair a01 = linalg::load2(col + 3 * a), c01 = linalg::load2(col + 3 * b);
-            const double a2 = col[3 * a + 2], c0 = col[3 * b], c1 = col[3 * b + 1], c2 = col[3 * b + 2];
-            p0 += a01 * Pair::Constant(c0);
-            p1 += a01 * Pair::Constant(c1);
-            p2 += a01 * Pair::Constant(c2);
-            q += Pair::Constant(a2) * c01;
-            b22 += a2 * c2;
-          }
-        };
-        // Goal a's first shared_columns columns: the runs of the supports' common prefix.
-        for (int r = ws_.run_begin[a], left = ws_.shared_columns[a * goals + b]; left > 0; ++r) {
-          const int width = std::min(runs[2 * r + 1], left);
-          add_columns(runs[2 * r], width);
-          left -= width;
-        }
-        // Block (a, b) only: factor() reads M's lower triangle alone (b <= a; a diagonal block's
-        // upper entries are written too, and never read).
-        double* m = &M(3 * a, 3 * b);
-        linalg::store2(m, p0);
-        linalg::store2(m + ld_m, p1);
-        linalg::store2(m + 2 * ld_m, p2);
-        m[2] = q[0];
-        m[2 + ld_m] = q[1];
-        m[2 + 2 * ld_m] = b22;
+    // Calls add(column) for goal a's first shared_columns(a, b) columns: the runs of the supports'
+    // common prefix, in order.
+    auto for_shared_columns = [&](int a, int b, auto&& add) {
+      for (int r = ws_.run_begin[a], left = ws_.shared_columns[a * goals + b]; left > 0; ++r) {
+        const int width = std::min(runs[2 * r + 1], left);
+        for (int c = runs[2 * r]; c < runs[2 * r] + width; ++c) add(J + c * ld);
+        left -= width;
       }
+    };
+    // Block (a, b) only: factor() reads M's lower triangle alone (b <= a; a diagonal block's upper
+    // entries are written too, and never read). Two entries per operation (linalg::Pair): (b00,
+    // b10), (b01, b11), (b02, b12), (b20, b21), then b22 alone; each entry gets the same products
+    // added in the same order as a scalar sum, so it rounds as one.
+    auto block = [&](int a, int b) {
+      Pair p0 = Pair::Zero(), p1 = Pair::Zero(), p2 = Pair::Zero(), q = Pair::Zero();
+      double b22 = 0.0;
+      for_shared_columns(a, b, [&](const double* col) {
+        const Pair a01 = linalg::load2(col + 3 * a), c01 = linalg::load2(col + 3 * b);
+        const double a2 = col[3 * a + 2], c0 = col[3 * b], c1 = col[3 * b + 1], c2 = col[3 * b + 2];
+        p0 += a01 * Pair::Constant(c0);
+        p1 += a01 * Pair::Constant(c1);
+        p2 += a01 * Pair::Constant(c2);
+        q += Pair::Constant(a2) * c01;
+        b22 += a2 * c2;
+      });
+      double* m = &M(3 * a, 3 * b);
+      linalg::store2(m, p0);
+      linalg::store2(m + ld_m, p1);
+      linalg::store2(m + 2 * ld_m, p2);
+      m[2] = q[0];
+      m[2 + ld_m] = q[1];
+      m[2 + 2 * ld_m] = b22;
+    };
+    // Blocks (a, b) and (a + 1, b) at once, for goals a and a + 1 on one effector (the same
+    // support, so the same shared columns): their six rows in three pairs times each of b's three
+    // rows, each entry summed as block() sums it.
+    auto block_pair = [&](int a, int b) {
+      Pair p00 = Pair::Zero(), p01 = Pair::Zero(), p02 = Pair::Zero();
+      Pair p10 = Pair::Zero(), p11 = Pair::Zero(), p12 = Pair::Zero();
+      Pair p20 = Pair::Zero(), p21 = Pair::Zero(), p22 = Pair::Zero();
+      for_shared_columns(a, b, [&](const double* col) {
+        const Pair r0 = linalg::load2(col + 3 * a), r1 = linalg::load2(col + 3 * a + 2),
+                   r2 = linalg::load2(col + 3 * a + 4);
+        const Pair c0 = Pair::Constant(col[3 * b]), c1 = Pair::Constant(col[3 * b + 1]),
+                   c2 = Pair::Constant(col[3 * b + 2]);
+        p00 += r0 * c0, p10 += r1 * c0, p20 += r2 * c0;
+        p01 += r0 * c1, p11 += r1 * c1, p21 += r2 * c1;
+        p02 += r0 * c2, p12 += r1 * c2, p22 += r2 * c2;
+      });
+      double* m = &M(3 * a, 3 * b);  // rows 3a .. 3a + 5 of columns 3b .. 3b + 2
+      linalg::store2(m, p00), linalg::store2(m + 2, p10), linalg::store2(m + 4, p20);
+      m += ld_m;
+      linalg::store2(m, p01), linalg::store2(m + 2, p11), linalg::store2(m + 4, p21);
+      m += ld_m;
+      linalg::store2(m, p02), linalg::store2(m + 2, p12), linalg::store2(m + 4, p22);
+    };
+    for (int a = 0; a < goals; ++a) {
+      if (a + 1 < goals && same_effector(a, a + 1)) {
+        for (int b = 0; b <= a; ++b) block_pair(a, b);
+        ++a;
+        block(a, a);
+        continue;
+      }
+      for (int b = 0; b <= a; ++b) block(a, b);
     }
   }
 
