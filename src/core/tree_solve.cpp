@@ -108,7 +108,7 @@ glm::dvec3 tree_goal_error(const Tree& tree, const TreeWorkspace& ws, const Goal
                        on_point_radius(tree, g));
 }
 
-void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws) {
+void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws, bool active_only) {
   if (tree.floating_root()) {
     ws.dof_axes[0] = glm::dvec3(1.0, 0.0, 0.0);
     ws.dof_axes[1] = glm::dvec3(0.0, 1.0, 0.0);
@@ -116,6 +116,7 @@ void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws) {
   }
   for (int i = 0; i < tree.joint_count(); ++i) {
     const int o = tree.dof_offset(i);
+    if (active_only && (tree.dof_count_of(i) == 0 || ws.dof_column[o] < 0)) continue;
     const glm::dquat& pre = ws.joint_pre_rotations[i];
     if (is_one_dof(tree.joint_type(i))) {
       ws.dof_axes[o] = pre * tree.axis(i);

@@ -795,7 +795,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   // ws holds the FK of params (solve_tree() measured the start pose).
   TreeErrors current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), residual, nullptr);
   double current_posture = posture_cost(tree, problem, params);
-  tree_dof_axes(tree, params, ws);
+  tree_dof_axes(tree, params, ws, true);
   model.linearize();
 
   // The damping starts at dls_initial_damping, or at kResidualDamping |e|^2 when that is smaller
@@ -835,7 +835,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), nullptr);
     residual = ws.residual.data();
     current_posture = posture_cost(tree, problem, params);
-    tree_dof_axes(tree, params, ws);
+    tree_dof_axes(tree, params, ws, true);
     model.linearize();
     mu = initial_mu;
     nu = 2.0;
@@ -880,7 +880,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       chord = false;
       chorded = served == model.served() && model.chord(params, step_posture_gain);
       if (!chorded) {
-        tree_dof_axes(tree, params, ws);  // ws holds the FK of params (the accepted trial's)
+        tree_dof_axes(tree, params, ws, true);  // ws holds the FK of params (the accepted trial's)
         model.linearize();
         if (ws.deadline.spent()) break;  // between the linearisation and the step's factorisation
       }
@@ -922,7 +922,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       // The chord step fell short: a full step from a fresh J (the damping stays).
       forward(params);
       if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
-      tree_dof_axes(tree, params, ws);
+      tree_dof_axes(tree, params, ws, true);
       model.linearize();
       continue;
     }
@@ -971,7 +971,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (!model.cut() && (gain >= kChordGain || (kept_met && posture_chords < kMaxPostureChords))) {
         chord = true;  // the next iteration reuses J
       } else {
-        tree_dof_axes(tree, params, ws);  // FK of params is what ws holds (the trial's)
+        tree_dof_axes(tree, params, ws, true);  // FK of params is what ws holds (the trial's)
         model.linearize();
       }
     } else {

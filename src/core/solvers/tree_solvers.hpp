@@ -34,7 +34,9 @@ TreeErrors tree_measure(const Tree& tree, const TreeProblem& problem, const Solv
 bool ball_surely_inside(const JointLimits& l, const double* p);
 
 // Base-frame axis of every DOF (ws.dof_axes), after tree_forward_kinematics.
-void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws);
+// active_only: only the joints whose DOFs have a column in ws.dof_column (the tree DLS's; the
+// others' axes are left as they were).
+void tree_dof_axes(const Tree& tree, const double* params, TreeWorkspace& ws, bool active_only = false);
 
 // What goal's Jacobian columns need of the pose ws holds, and the column of DOF `dof` (unweighted:
 // the change of the goal's "current" side per unit of the DOF; zero where the DOF does not move
