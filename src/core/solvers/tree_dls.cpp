@@ -218,6 +218,7 @@ class HierarchicalStep {
     std::fill(ws.dof_column.begin(), ws.dof_column.end(), -1);
     for (int g = 0; g < problem.goals.size; ++g) {
       const int e = problem.goals[g].goal.effector;
+      if (g > 0 && problem.goals[g - 1].goal.effector == e) continue;  // marked just now
       const int* support = tree.support_list(e);
       for (int s = 0; s < tree.support_count(e); ++s) {
         const int j = support[s];
@@ -260,6 +261,15 @@ class HierarchicalStep {
       const int* sa = tree.support_list(ea);
       const int na = tree.support_count(ea);
       for (int b = 0; b <= a; ++b) {
+        // A goal on the effector of the one before it shares what that one shares.
+        if (b > 0 && same_effector(b - 1, b)) {
+          ws.shared_columns[a * goals + b] = ws.shared_columns[a * goals + b - 1];
+          continue;
+        }
+        if (a > b && same_effector(a - 1, a)) {
+          ws.shared_columns[a * goals + b] = ws.shared_columns[(a - 1) * goals + b];
+          continue;
+        }
         const int eb = problem.goals[ws.goal_order[b]].goal.effector;
         const int* sb = tree.support_list(eb);
         const int common_end = std::min(na, tree.support_count(eb));
