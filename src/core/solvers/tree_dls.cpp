@@ -394,9 +394,11 @@ class HierarchicalStep {
     for (int l = 0; l < served_; ++l) {
       const int b = levels_.begin[l], m = levels_.end[l] - b;
       // S = Jt Jt^T with Jt = Jl (I - A^T G^-1 A), the level's rows in the null space above.
-      const Cols S = cols_of(ws_.coupling.block(b, b, m, m));
-      for (int j = 0; j < m; ++j)
-        for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
+      // The first level has no rows above: S is M's block itself (read, never written).
+      const Cols S = b == 0 ? cols_of(ws_.row_square.topLeftCorner(m, m)) : cols_of(ws_.coupling.block(b, b, m, m));
+      if (b > 0)
+        for (int j = 0; j < m; ++j)
+          for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
       const Cols W = cols_of(F.block(0, b, b, m));
       if (b > 0) {
         // W^T first, where F's new block row goes (m x b: its columns are W's rows), by one
