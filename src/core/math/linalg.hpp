@@ -250,7 +250,10 @@ inline void lower_solve_rows(Cols l, int count, Cols xt, int rhs) {
     double* xk = xt.col(k);
     subtract_products(xk, rhs, xt.p, xt.ld, l.p + k, l.ld, k);  // - L(k, j) X(j, :), j < k
     const double d = l(k, k);
-    for (int c = 0; c < rhs; ++c) xk[c] /= d;
+    const Pair dv = Pair::Constant(d);  // two divisions per operation, each rounding as one
+    int c = 0;
+    for (; c + 2 <= rhs; c += 2) store2(xk + c, load2(xk + c) / dv);
+    if (c < rhs) xk[c] /= d;
   }
 }
 // x <- L^-T x (back substitution).
