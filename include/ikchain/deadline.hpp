@@ -97,6 +97,8 @@ struct Deadline {
     const double gap = now - last_reading_us;  // since start(): last_reading_us stays there
     longest_gap_us = std::max(longest_gap_us, gap);
     if (now + (kFirstStretchRatio + 1.0) * gap + kReserveUs <= bound_end_us) return false;
+    // Found spent here: this is the solve's last reading (a look that passes leaves it at start()).
+    last_reading_us = now;
     foreseen = true;
     return hit = true;
   }

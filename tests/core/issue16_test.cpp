@@ -536,6 +536,39 @@ TEST(Issue16, TimeBudgetStopsBeforeAStretchThatWouldOverrun) {
   EXPECT_GE(foreseen, solves / 2);
 }
 
+// Item 6, the fuzzer's invariant (tests/fuzz/solve_fuzz.cpp): a budget found spent before its end
+// (Deadline::foreseen) was found so at the solve's last clock reading, last_reading_us. The
+// dispatcher's look after its set-up (Deadline::spent_before_solver) keeps last_reading_us at
+// start() when it passes, so the solver's first gap spans the whole set-up; when it finds the
+// budget spent it is the last reading, and says so (before: it stayed at start(), the fuzzer's
+// finding in CI at 36919f5: "the clock was read again after the budget was found spent").
+double g_set_now = 0.0;
+double set_clock() { return g_set_now; }
+TEST(Issue16, DeadlineFoundSpentBeforeTheSolverRecordsThatReading) {
+  Deadline d;
+  d.clock_us = &set_clock;
+  // Budget 30 us: the bound is 1.1 x 30 + 20 = 53 us. A 5 us set-up passes (5 + 4 x 5 + 1 <= 53) and
+  // leaves the last reading at the start; the solver's first reading at 10 measures 10 from there.
+  d.start(30.0, 0.0);
+  g_set_now = 5.0;
+  EXPECT_FALSE(d.spent_before_solver());
+  EXPECT_EQ(d.last_reading_us, 0.0);
+  g_set_now = 10.0;
+  EXPECT_FALSE(d.spent());  // 10 + 4 x 10 + 1 <= 53
+  EXPECT_EQ(d.setup_gap_us, 10.0);
+  EXPECT_EQ(d.last_reading_us, 10.0);
+  // A 12 us set-up does not (12 + 4 x 12 + 1 > 53): spent there, foreseen, and that is the last reading.
+  d.start(30.0, 0.0);
+  g_set_now = 12.0;
+  EXPECT_TRUE(d.spent_before_solver());
+  EXPECT_TRUE(d.hit);
+  EXPECT_TRUE(d.foreseen);
+  EXPECT_EQ(d.last_reading_us, 12.0);
+  g_set_now = 20.0;
+  EXPECT_TRUE(d.spent());  // spent stays spent, without reading the clock again
+  EXPECT_EQ(d.last_reading_us, 12.0);
+}
+
 // Item 6, the exit work of a solve the budget stops before it moves: on long chains with a small
 // budget the set-up alone (the start pose's FK and measure, a solver's first evaluation) can use the
 // budget, and the exit work then decides whether the solve ends within 1.1 x budget + 20 us
