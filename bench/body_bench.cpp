@@ -322,10 +322,7 @@ int main(int argc, char** argv) {
       r.params[k].assign(r.model.dof_count(), 0.0);
       body::recorded_params(r.clip, r.model, r.frames[k], r.params[k].data());
       body::forward_kinematics(r.model, r.params[k].data(), r.poses[k]);
-      for (int e = 0; e < body::kEffectorCount; ++e) {
-        r.targets[k].position[e] = body::effector_position(r.model, r.poses[k], e);
-        r.targets[k].orientation[e] = body::effector_orientation(r.model, r.poses[k], e);
-      }
+      r.targets[k] = body::targets_at(r.model, r.poses[k]);
     }
     r.stature_m = rest_stature(r.model, r.clip);
     std::vector<double> hips_heights;

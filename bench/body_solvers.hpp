@@ -17,6 +17,16 @@ struct Targets {
   glm::dquat orientation[kEffectorCount];
 };
 
+// The targets a posed body meets exactly: each effector's pose in `pose` (a recorded frame's, the rest's).
+inline Targets targets_at(const Model& m, const Pose& pose) {
+  Targets t;
+  for (int e = 0; e < kEffectorCount; ++e) {
+    t.position[e] = effector_position(m, pose, e);
+    t.orientation[e] = effector_orientation(m, pose, e);
+  }
+  return t;
+}
+
 class BodySolver {
  public:
   virtual ~BodySolver() = default;

@@ -159,14 +159,10 @@ std::vector<std::unique_ptr<BodySolver>> make_tree_solvers(const Model& m, const
       }
     }
   }
-  Targets rest;
   Pose pose;
   std::vector<double> zero(m.dof_count(), 0.0);
   forward_kinematics(m, zero.data(), pose);
-  for (int e = 0; e < kEffectorCount; ++e) {
-    rest.position[e] = effector_position(m, pose, e);
-    rest.orientation[e] = effector_orientation(m, pose, e);
-  }
+  const Targets rest = targets_at(m, pose);
   for (const ikchain::SolverInfo& info : ikchain::solver_table()) {
     auto s = std::make_unique<TreeBody>(m, tree, info.kind, options);
     const ikchain::Message msg = s->validate(rest);

@@ -29,11 +29,7 @@ TEST(ChainStack, ReplaysCmuHopsWarm) {
   for (int f = 1; f <= 30; ++f) {
     body::recorded_params(clip, m, f, recorded.data());
     body::forward_kinematics(m, recorded.data(), goal_pose);
-    body::Targets t;
-    for (int e = 0; e < body::kEffectorCount; ++e) {
-      t.position[e] = body::effector_position(m, goal_pose, e);
-      t.orientation[e] = body::effector_orientation(m, goal_pose, e);
-    }
+    const body::Targets t = body::targets_at(m, goal_pose);
     if (f == 1)
       for (int k = 0; k < 6; ++k) params[k] = recorded[k];
     int iterations = 0;

@@ -991,19 +991,10 @@ TEST(Issue16, SoftReachStraightensTheKneeWithoutASnap) {
 // (on 253026a: pinv 1985, DLS 1999, BFGS 1987; now 2000 each).
 // The robots bench's start (the middle of every hinge's limits) and options (1e-5 L, 1e-4 rad, no
 // restart), counts not times: no time cap, so a loaded machine cannot cut a solve short.
-Eigen::VectorXd middle_of_limits(const Chain& c) {
-  Eigen::VectorXd middle(c.dof_count());
-  for (int i = 0; i < c.dof_count(); ++i) middle[i] = 0.5 * (c.limits(i).hinge_min + c.limits(i).hinge_max);
-  return middle;
-}
-
 SolverOptions robots_bench_options(const Chain& c, int max_iterations) {
-  SolverOptions o;
-  o.position_tolerance = 1e-5 * c.total_length();
-  o.orientation_tolerance = 1e-4;
+  SolverOptions o = test::arm_options(c);
   o.max_iterations = max_iterations;
   o.warm_start = true;
-  o.time_cap_usec = 0.0;
   EXPECT_EQ(o.max_restarts, 0);
   return o;
 }
@@ -1034,7 +1025,7 @@ TEST(Issue16, TorsoArmPositionGoalsWithoutRestarts) {
   const int n = c.dof_count();
   ASSERT_EQ(n, 10);
   Workspace ws(c, 1);
-  const Eigen::VectorXd middle = middle_of_limits(c);
+  const Eigen::VectorXd middle = test::middle_of_limits(c);
   const SolverOptions o = robots_bench_options(c, 100);
   // Converged, within the limits, the tip (by 4x4 transforms, not the library's FK) on the target.
   auto reaches = [&](SolverKind kind, const glm::dvec3& target) {
@@ -1141,7 +1132,7 @@ struct FailureBound {
 void expect_full_poses_reached(const Chain& c, std::initializer_list<FailureBound> bounds) {
   const int n = c.dof_count();
   Workspace ws(c, 2);
-  const Eigen::VectorXd middle = middle_of_limits(c);
+  const Eigen::VectorXd middle = test::middle_of_limits(c);
   const SolverOptions o = robots_bench_options(c, 300);
   constexpr int kGoals = 2000;
   std::mt19937 rng(20261126u);

@@ -36,9 +36,7 @@ void swing_and_twist(const glm::dvec3& r, const glm::dvec3& axis, double& swing_
 }
 
 SolverOptions arm_options(const Chain& c) {
-  SolverOptions o;
-  o.position_tolerance = 1e-5 * c.total_length();
-  o.orientation_tolerance = 1e-4;
+  SolverOptions o = test::arm_options(c);
   o.max_iterations = 100;
   return o;
 }

@@ -32,12 +32,6 @@ Chain limited_arm7() {
   return c;
 }
 
-Eigen::VectorXd middle_of_limits(const Chain& c) {
-  Eigen::VectorXd m(c.dof_count());
-  for (int i = 0; i < c.joint_count(); ++i) m[i] = 0.5 * (c.limits(i).hinge_min + c.limits(i).hinge_max);
-  return m;
-}
-
 // Full poses (position + orientation weighted by L^2) made by FK of random in-limit poses.
 std::vector<std::vector<Goal>> full_poses(const Chain& c, int count, unsigned seed) {
   std::mt19937 rng(seed);
@@ -55,9 +49,7 @@ std::vector<std::vector<Goal>> full_poses(const Chain& c, int count, unsigned se
 }
 
 SolverOptions arm_options(const Chain& c, int restarts) {
-  SolverOptions o;
-  o.position_tolerance = 1e-5 * c.total_length();
-  o.orientation_tolerance = 1e-4;
+  SolverOptions o = test::arm_options(c);
   o.max_restarts = restarts;
   return o;
 }
@@ -67,7 +59,7 @@ TEST(Restarts, OffByDefault) {
   const Chain c = limited_arm7();
   Workspace ws(c, 2);
   for (const std::vector<Goal>& goals : full_poses(c, 50, 3)) {
-    Eigen::VectorXd p = middle_of_limits(c);
+    Eigen::VectorXd p = test::middle_of_limits(c);
     const SolveResult r = test::run(SolverKind::kDLS, c, goals, arm_options(c, 0), ws, p);
     EXPECT_EQ(r.restarts, 0);
   }
@@ -82,9 +74,9 @@ TEST(Restarts, SolveLimitedArmFullPoses) {
   for (SolverKind kind : {SolverKind::kDLS, SolverKind::kJacobianPinv, SolverKind::kBFGS}) {
     int without = 0, with = 0, restarted = 0;
     for (const std::vector<Goal>& goals : poses) {
-      Eigen::VectorXd p = middle_of_limits(c);
+      Eigen::VectorXd p = test::middle_of_limits(c);
       without += test::run(kind, c, goals, arm_options(c, 0), ws, p).reason == TerminationReason::kConverged;
-      p = middle_of_limits(c);
+      p = test::middle_of_limits(c);
       const SolveResult r = test::run(kind, c, goals, arm_options(c, 20), ws, p);
       ASSERT_TRUE(within_limits(c, p.data(), 1e-9)) << to_string(kind);
       restarted += r.restarts > 0;
@@ -108,7 +100,7 @@ TEST(Restarts, DeterministicForASeed) {
   Workspace ws(c, 2);
   int differ = 0, compared = 0;
   for (const std::vector<Goal>& goals : full_poses(c, 100, 8)) {
-    Eigen::VectorXd a = middle_of_limits(c), b = a, d = a;
+    Eigen::VectorXd a = test::middle_of_limits(c), b = a, d = a;
     SolverOptions o = arm_options(c, 20);
     o.max_iterations = 30;  // short runs: more restarts to compare
     const SolveResult ra = test::run(SolverKind::kDLS, c, goals, o, ws, a);
@@ -130,7 +122,7 @@ TEST(Restarts, DeterministicForASeed) {
 TEST(Restarts, NotForUnreachableGoalsAndWithinTheBudget) {
   const Chain c = limited_arm7();
   Workspace ws(c, 2);
-  Eigen::VectorXd p = middle_of_limits(c);
+  Eigen::VectorXd p = test::middle_of_limits(c);
   SolveResult r = test::run(SolverKind::kDLS, c, {Goal::position(glm::dvec3(0, 5, 0))}, arm_options(c, 20), ws, p);
   EXPECT_EQ(r.restarts, 0);
   // The limits keep joint 4 bent, so the tip cannot reach the reach sphere: stalled, not unreachable.
@@ -139,7 +131,7 @@ TEST(Restarts, NotForUnreachableGoalsAndWithinTheBudget) {
   o.orientation_tolerance = 1e-15;  // never met: every restart would run
   o.time_budget_usec = 1e-3;
   for (const std::vector<Goal>& goals : full_poses(c, 5, 9)) {
-    p = middle_of_limits(c);
+    p = test::middle_of_limits(c);
     r = test::run(SolverKind::kDLS, c, goals, o, ws, p);
     EXPECT_TRUE(r.budget_exhausted);
     EXPECT_EQ(r.restarts, 0);

@@ -44,6 +44,20 @@ inline SolverOptions tolerance_options(const Chain& c) {
   return o;
 }
 
+// Robot arms (the robots bench's criterion): 1e-5 L and 1e-4 rad, no wall-clock cap, no restart.
+inline SolverOptions arm_options(const Chain& c) {
+  SolverOptions o = tolerance_options(c);
+  o.orientation_tolerance = 1e-4;
+  return o;
+}
+
+// The robots bench's start: the middle of every hinge's limits.
+inline Eigen::VectorXd middle_of_limits(const Chain& c) {
+  Eigen::VectorXd middle(c.dof_count());
+  for (int i = 0; i < c.dof_count(); ++i) middle[i] = 0.5 * (c.limits(i).hinge_min + c.limits(i).hinge_max);
+  return middle;
+}
+
 // CCD and FABRIK: `max_iterations` sweeps, warm start (the default).
 inline SolverOptions sweep_options(const Chain& c, int max_iterations = 200) {
   SolverOptions o = tolerance_options(c);

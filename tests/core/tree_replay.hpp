@@ -60,11 +60,7 @@ inline Replay replay_clip(const char* path, double metres_per_unit, const std::s
   for (int f = 1; f <= frames && f < clip.frame_count; ++f) {
     body::recorded_params(clip, m, f, recorded.data());
     body::forward_kinematics(m, recorded.data(), recorded_pose);
-    body::Targets t;
-    for (int e = 0; e < body::kEffectorCount; ++e) {
-      t.position[e] = body::effector_position(m, recorded_pose, e);
-      t.orientation[e] = body::effector_orientation(m, recorded_pose, e);
-    }
+    const body::Targets t = body::targets_at(m, recorded_pose);
     if (!warm || f == 1) {
       std::fill(params.begin(), params.end(), 0.0);
       std::copy(recorded.begin(), recorded.begin() + 6, params.begin());
