@@ -15,7 +15,8 @@
 // O(joints x goals) without recomputing forward kinematics: a joint's update moves only joints
 // after it in the order, which the sweep has already visited.
 // A hinge right after a ball without limits (IKBody's humanoid: knees after free hips, elbows
-// after free shoulders), the only goal on the effectors it supports a position goal, takes the
+// after free shoulders), the only goal on the effectors it supports a position goal (or a pose goal
+// whose rotation a free ball below takes: WristCentres), takes the
 // chain CCD's triangle step instead of the classic fit (geometric::triangle_turn, ccd.cpp's file
 // comment): the angle that puts the effector at the target's distance from the ball's origin, which
 // the ball then turns onto the target. From straight legs the classic fit needed a mean of 46.9
@@ -33,28 +34,85 @@
 namespace ikchain {
 namespace {
 
+// Pose goals on an effector whose own joint is a free ball (IKBody's humanoid: position and rotation
+// on the foot or hand bone, no limits there): that ball can take any rotation, so the joints above
+// it serve the position of its origin (the wrist centre) where the effector lands on its target at
+// the target rotation, and leave the rotation to it (the decoupling of a spherical wrist, Pieper
+// 1968). Without it the hips, knees and spine weighed the feet's rotations against their positions
+// in every fit (TreeCcd.BendsStraightLegsWithFootRotationGoalsInFewIterations: 64 sweeps, the cap,
+// feet up to 106 mm off).
+struct WristCentres {
+  int partner[kMaxTreeGoals];          // the position goal's orientation goal and back, or -1
+  glm::dvec3 target[kMaxTreeGoals];    // for a partnered position goal: the wrist centre's target
+
+  WristCentres(const Tree& tree, const TreeProblem& problem) {
+    const int goals = problem.goals.size;
+    for (int g = 0; g < goals; ++g) partner[g] = -1;
+    for (int g = 0; g < goals; ++g) {
+      const Goal& position = problem.goals[g].goal;
+      if (position.kind != GoalKind::kPosition) continue;
+      const int joint = tree.effector(position.effector).joint;
+      if (tree.joint_type(joint) != JointType::kBall || has_joint_limits(JointType::kBall, tree.limits(joint))) continue;
+      for (int o = 0; o < goals; ++o) {
+        const Goal& orientation = problem.goals[o].goal;
+        if (orientation.kind != GoalKind::kOrientation || orientation.effector != position.effector || partner[o] >= 0)
+          continue;
+        partner[g] = o;
+        partner[o] = g;
+        target[g] = centre(tree, position.effector, position.target_position, orientation.target_orientation);
+        break;
+      }
+    }
+  }
+  // Where effector e's joint origin is when e is at `position` with `orientation`.
+  static glm::dvec3 centre(const Tree& tree, int e, const glm::dvec3& position, const glm::dquat& orientation) {
+    const TreeEffectorDesc& d = tree.effector(e);
+    return position - (so3::normalized(orientation) * glm::conjugate(d.rotation)) * d.offset;
+  }
+  // Goal g seen from joint j, above its effector's joint (the ball): a partnered orientation goal
+  // is the ball's alone; a partnered position goal is its wrist centre's.
+  bool left_to_the_ball(const Tree& tree, const TreeProblem& problem, int g, int j) const {
+    return partner[g] >= 0 && problem.goals[g].goal.kind == GoalKind::kOrientation &&
+           tree.effector(problem.goals[g].goal.effector).joint != j;
+  }
+  bool centred(const Tree& tree, const TreeProblem& problem, int g, int j) const {
+    return partner[g] >= 0 && problem.goals[g].goal.kind == GoalKind::kPosition &&
+           tree.effector(problem.goals[g].goal.effector).joint != j;
+  }
+};
+
 // The chain's triangle step (ccd.cpp, geometric::triangle_turn) on a tree: hinge j right after a
 // ball without limits (a knee after its hip, an elbow after its shoulder, as IKBody's humanoid has
-// them), the only goal on the effectors it supports a position goal. Writes the turn (rad, not yet
-// applied) into `turn`; false when the step does not apply (then the classic fit).
-bool triangle_turn(const Tree& tree, const TreeProblem& problem, const geometric::Tracked* tracked,
-                   const TreeWorkspace& ws, int j, const glm::dvec3& axis, double q0, double& turn) {
+// them), the only goal on the effectors it supports a position goal (a partnered one: its wrist
+// centre, WristCentres). Writes the turn (rad, not yet applied) into `turn`; false when the step
+// does not apply (then the classic fit).
+bool triangle_turn(const Tree& tree, const TreeProblem& problem, const WristCentres& wrists,
+                   const geometric::Tracked* tracked, const TreeWorkspace& ws, int j, const glm::dvec3& axis, double q0,
+                   double& turn) {
   const int parent = tree.parent(j);
   if (parent < 0 || tree.joint_type(parent) != JointType::kBall ||
       has_joint_limits(JointType::kBall, tree.limits(parent)))
     return false;
   int only = -1;
   for (int g = 0; g < problem.goals.size; ++g) {
-    if (!tree.supports(problem.goals[g].goal.effector, j)) continue;
-    if (only >= 0 || problem.goals[g].goal.kind != GoalKind::kPosition) return false;
+    const Goal& goal = problem.goals[g].goal;
+    if (!tree.supports(goal.effector, j) || wrists.left_to_the_ball(tree, problem, g, j)) continue;
+    if (only >= 0 || goal.kind != GoalKind::kPosition) return false;
     only = g;
   }
-  return only >= 0 && geometric::triangle_turn(ws.joint_origins[parent], ws.joint_origins[j], axis, tracked[only].position,
-                                               problem.goals[only].goal.target_position, tree.limits(j), q0, turn);
+  if (only < 0) return false;
+  const Goal& goal = problem.goals[only].goal;
+  const bool centred = wrists.centred(tree, problem, only, j);
+  const glm::dvec3 current = centred ? WristCentres::centre(tree, goal.effector, tracked[only].position,
+                                                             tracked[only].orientation)
+                                     : tracked[only].position;
+  const glm::dvec3 target = centred ? wrists.target[only] : goal.target_position;
+  return geometric::triangle_turn(ws.joint_origins[parent], ws.joint_origins[j], axis, current, target, tree.limits(j), q0,
+                                  turn);
 }
 
-double sweep(const Tree& tree, const TreeProblem& problem, const SolverOptions& o, TreeWorkspace& ws,
-             geometric::Tracked* tracked, double* params) {
+double sweep(const Tree& tree, const TreeProblem& problem, const WristCentres& wrists, const SolverOptions& o,
+             TreeWorkspace& ws, geometric::Tracked* tracked, double* params) {
   const int goals = problem.goals.size;
   for (int g = 0; g < goals; ++g) {
     const Goal& goal = problem.goals[g].goal;
@@ -74,9 +132,14 @@ double sweep(const Tree& tree, const TreeProblem& problem, const SolverOptions& 
       bool any = false;
       for (int g = 0; g < goals; ++g) {
         const TreeGoal& tg = problem.goals[g];
-        if (!tree.supports(tg.goal.effector, j)) continue;
+        if (!tree.supports(tg.goal.effector, j) || wrists.left_to_the_ball(tree, problem, g, j)) continue;
         any = true;
         const double lw = tree_common::level_weight(tg.level);
+        if (wrists.centred(tree, problem, g, j)) {
+          const glm::dvec3 centre = WristCentres::centre(tree, tg.goal.effector, tracked[g].position, tracked[g].orientation);
+          add(centre - origin, wrists.target[g] - origin, lw * tg.goal.weight);
+          continue;
+        }
         geometric::goal_pairs(tg.goal, tracked[g], origin,
                               [&](const glm::dvec3& a, const glm::dvec3& b, double w) { add(a, b, lw * w); });
       }
@@ -89,7 +152,7 @@ double sweep(const Tree& tree, const TreeProblem& problem, const SolverOptions& 
     } else {
       const glm::dvec3 axis = pre * tree.axis(j);
       double turn = 0.0;
-      if (triangle_turn(tree, problem, tracked, ws, j, axis, p[0], turn)) {
+      if (triangle_turn(tree, problem, wrists, tracked, ws, j, axis, p[0], turn)) {
         applied = glm::angleAxis(geometric::turn_hinge_param(tree.limits(j), turn, o.max_step_angle, p), axis);
       } else {
         geometric::HingeFit fit;
@@ -128,6 +191,7 @@ TreeSolverStatus solve_tree_ccd(const Tree& tree, const TreeProblem& problem, co
                                 TreeWorkspace& ws, double* params) {
   TreeSolverStatus status;
   geometric::Tracked tracked[kMaxTreeGoals];
+  const WristCentres wrists(tree, problem);
   tree_common::Progress progress(tree, problem, options, ws, params);
   status.reason = TerminationReason::kMaxIterations;
   if (progress.met()) {
@@ -135,7 +199,7 @@ TreeSolverStatus solve_tree_ccd(const Tree& tree, const TreeProblem& problem, co
     return status;
   }
   while (status.iterations < options.max_iterations && !(status.iterations == 0 && ws.deadline.spent())) {
-    const double moved = sweep(tree, problem, options, ws, tracked, params);
+    const double moved = sweep(tree, problem, wrists, options, ws, tracked, params);
     ++status.iterations;
     if (progress.stop_after_iteration(params, moved, status.reason)) break;
   }
