@@ -138,6 +138,12 @@ class IKBody : public IKModifier {
   std::vector<BonePose> bone_poses_;
   std::vector<glm::dquat> rotations_;
   Eigen::VectorXd params_, anim_params_, previous_anim_params_, last_params_;
+  // anim_params_ are params_from_pose() of the mapping's recorded poses (false after a rebuild).
+  bool anim_params_current_ = false;
+  // The base frame and the two transforms it was made from (base_current_ false: make it again).
+  BaseFrame base_;
+  glm::dmat4 base_skeleton_global_{1.0}, base_bone_in_skeleton_{1.0};
+  bool base_current_ = false;
   Eigen::VectorXd posture_;  // the start pose, limb planes turned toward their poles
   std::vector<double> posture_stiffness_;
   std::vector<TreeGoal> goals_;

@@ -294,6 +294,8 @@ uint64_t IKBody::resource_revision() const {
 
 void IKBody::rebuild(const gdx::Skeleton3D& skel) {
   dirty_ = false;
+  anim_params_current_ = false;
+  base_current_ = false;
   const bool was_ok = body_ok_;
   body_ok_ = false;
   body_problems_.clear();

@@ -30,6 +30,7 @@ class IKBodyEffector {
   bool is_enabled() const { return enabled_; }
   void set_target(const gdx::NodePath& path);
   gdx::NodePath get_target() const { return target_; }
+  const gdx::NodePath& target() const { return target_; }  // per frame: no NodePath copy
   void set_use_target_transform(bool on);
   bool is_using_target_transform() const { return use_target_transform_; }
   void set_target_transform(const gdx::Transform3D& transform);
@@ -45,6 +46,7 @@ class IKBodyEffector {
   double get_influence() const { return influence_; }
   void set_pole_target(const gdx::NodePath& path);
   gdx::NodePath get_pole_target() const { return pole_target_; }
+  const gdx::NodePath& pole_target() const { return pole_target_; }
   // Look mode: the bone's look_axis (its own frame) aims at the target's origin (the core's kAimAt
   // goal, weighted by rotation_weight) instead of reaching it; look_shares spread the turn over the
   // bone and its ancestors (index 0 = this bone, 1 = its parent, ...).

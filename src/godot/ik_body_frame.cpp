@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 
 #include "binding/classes.hpp"
@@ -45,22 +46,30 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
   }
   // The incoming pose: the animation's (Skeleton3D restores it before the modifiers run).
   const int n = mapping_.bone_count();
+  static_assert(sizeof(BonePose) == 10 * sizeof(double), "BonePose is compared bitwise: no padding");
+  bool pose_as_recorded = anim_params_current_;
   for (int i = 0; i < n; ++i) {
     const int bone = mapping_.skeleton_bone(i);
     BonePose& p = bone_poses_[size_t(i)];
     p.position = gdx::to_glm(skel.get_bone_pose_position(bone));
     p.rotation = gdx::to_glm(skel.get_bone_pose_rotation(bone));
     p.scale = gdx::to_glm(skel.get_bone_pose_scale(bone));
+    pose_as_recorded = pose_as_recorded && std::memcmp(&p, &mapping_.bone_pose(i), sizeof(BonePose)) == 0;
   }
-  const PoseUpdate update = mapping_.update_pose(bone_poses_);
-  if (!update.error.empty()) {
-    report_runtime(std::string("IKBody: ") + update.error.c_str() + "; the animated pose is kept this frame.");
-    set_invalid_result(update.error.c_str());
-    return false;
+  // The same bits as the poses anim_params_ came from (no animation playing): update_pose() and
+  // params_from_pose() would give what they gave then, so they are skipped.
+  if (!pose_as_recorded) {
+    anim_params_current_ = false;
+    const PoseUpdate update = mapping_.update_pose(bone_poses_);
+    if (!update.error.empty()) {
+      report_runtime(std::string("IKBody: ") + update.error.c_str() + "; the animated pose is kept this frame.");
+      set_invalid_result(update.error.c_str());
+      return false;
+    }
+    if (update.shape_changed) workspace_.reset(mapping_.tree(), int(goals_.size()));  // same sizes: no reallocation
+    mapping_.params_from_pose(anim_params_.data());
+    anim_params_current_ = true;
   }
-  if (update.shape_changed) workspace_.reset(mapping_.tree(), int(goals_.size()));  // same sizes: no reallocation
-
-  mapping_.params_from_pose(anim_params_.data());
   // Warm start: the animated pose; while it stays the same (no animation playing), the last
   // solution, which tracks moving targets smoothly. `deterministic`: always the animated pose,
   // so the output depends on this frame's inputs alone.
@@ -69,14 +78,23 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
   previous_anim_params_ = anim_params_;
 
   const glm::dmat4 base_bone = base_bone_ >= 0 ? gdx::to_glm(skel.get_bone_global_pose(base_bone_)) : glm::dmat4(1.0);
-  BaseFrame base;
-  if (!BaseFrame::make(gdx::to_glm(skel.get_global_transform()), base_bone, base)) {
-    const char* bad = "IKBody: the skeleton's global transform (or the root bone's parent pose) is not invertible: a "
-                      "zero scale? The animated pose is kept this frame.";
-    report_runtime(bad);
-    set_invalid_result(bad);
-    return false;
+  const glm::dmat4 skeleton_global = gdx::to_glm(skel.get_global_transform());
+  // A skeleton standing still keeps its base frame: made again when an input changed a bit.
+  if (!base_current_ || std::memcmp(&skeleton_global, &base_skeleton_global_, sizeof(glm::dmat4)) != 0 ||
+      std::memcmp(&base_bone, &base_bone_in_skeleton_, sizeof(glm::dmat4)) != 0) {
+    base_current_ = false;
+    if (!BaseFrame::make(skeleton_global, base_bone, base_)) {
+      const char* bad = "IKBody: the skeleton's global transform (or the root bone's parent pose) is not invertible: "
+                        "a zero scale? The animated pose is kept this frame.";
+      report_runtime(bad);
+      set_invalid_result(bad);
+      return false;
+    }
+    base_skeleton_global_ = skeleton_global;
+    base_bone_in_skeleton_ = base_bone;
+    base_current_ = true;
   }
+  const BaseFrame& base = base_;
 
   // The posture task pulls the freedom the effectors leave toward the incoming (animated) pose,
   // poles applied: the smallest correction of the animation. Never toward the last solution: that
@@ -88,7 +106,7 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
   const gdx::Node self = gdx::Node::unchecked(owner_);
   for (const Slot& slot : slots_) {
     if (slot.pole_end < 0 || !slot.effector->is_enabled()) continue;
-    const gdx::Node3D pole = gdx::Node3D::cast(self.get_node_or_null(slot.effector->get_pole_target()));
+    const gdx::Node3D pole = gdx::Node3D::cast(self.get_node_or_null(slot.effector->pole_target()));
     if (!pole || !pole.is_inside_tree()) {
       report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
                      ": pole_target does not point to a Node3D in the scene tree; the pole is ignored until it is "
@@ -108,9 +126,14 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
   }
   if (!warm) params_ = posture_;
 
-  // The animated effector poses: what an effector with influence < 1 blends from.
+  // The animated effector poses: what an effector with influence < 1 blends from. Computed when
+  // the first such effector asks (most rigs have none); solve_tree() runs its own FK.
   const Tree& tree = mapping_.tree();
-  tree_forward_kinematics(tree, anim_params_.data(), workspace_);
+  bool animated_fk = false;
+  auto animated_poses = [&]() {
+    if (!animated_fk) tree_forward_kinematics(tree, anim_params_.data(), workspace_);
+    animated_fk = true;
+  };
   int goal_count = 0;
   look_goals_.clear();  // capacity: one per slot (rebuild), so no allocation
   std::fill(effector_position_error_.begin(), effector_position_error_.end(), kNaN);
@@ -122,8 +145,8 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
     if (!(wp > 0.0) && !(wr > 0.0)) continue;  // a configuration warning says so
     gdx::Transform3D target_global = e.get_target_transform();
     if (!e.is_using_target_transform()) {
-      if (e.get_target().is_empty()) continue;  // a configuration warning says so
-      const gdx::Node3D node = gdx::Node3D::cast(self.get_node_or_null(e.get_target()));
+      if (e.target().is_empty()) continue;  // a configuration warning says so
+      const gdx::Node3D node = gdx::Node3D::cast(self.get_node_or_null(e.target()));
       if (!node || !node.is_inside_tree()) {
         report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
                        ": target does not point to a Node3D in the scene tree (freed or moved?); the effector "
@@ -146,7 +169,6 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
       if (!(wr > 0.0)) continue;  // a configuration warning says so
       // Aim the bone's look_axis at the target's origin; with influence < 1 the aimed point turns
       // only that share of the way from where the animation looks.
-      const glm::dvec3 origin = tree_effector_position(tree, workspace_, slot.core_effector);
       const glm::dvec3 target = mapping_.point_in_tree(base.point_in_base(glm::dvec3(target_m[3])));
       if (!within_magnitude(target)) {
         report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
@@ -156,6 +178,8 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
       const glm::dvec3 axis = glm::normalize(glm::dvec3(gdx::to_glm(e.get_look_axis())));
       glm::dvec3 point = target;
       if (influence < 1.0) {
+        animated_poses();
+        const glm::dvec3 origin = tree_effector_position(tree, workspace_, slot.core_effector);
         const glm::dvec3 facing = tree_effector_orientation(tree, workspace_, slot.core_effector) * axis;
         const glm::dvec3 to_target = target - origin;
         const double distance = glm::length(to_target);
@@ -176,9 +200,12 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
       continue;
     }
     if (wp > 0.0) {
-      const glm::dvec3 animated = tree_effector_position(tree, workspace_, slot.core_effector);
       const glm::dvec3 target = mapping_.point_in_tree(base.point_in_base(glm::dvec3(target_m[3])));
-      const glm::dvec3 goal = influence >= 1.0 ? target : glm::mix(animated, target, influence);
+      glm::dvec3 goal = target;
+      if (!(influence >= 1.0)) {
+        animated_poses();
+        goal = glm::mix(tree_effector_position(tree, workspace_, slot.core_effector), target, influence);
+      }
       if (!within_magnitude(goal)) {
         report_runtime("IKBody: " + effector_label(slot.index, slot.bone) +
                        ": the target is absurdly far (beyond 1e50 m); the effector follows the animation.");
@@ -189,10 +216,14 @@ bool IKBody::run(const gdx::Skeleton3D& skel) {
       goal_rotation_[size_t(goal_count)] = 0;
       ++goal_count;
     }
-    if (wr > 0.0 && has_rotation(glm::dmat3(target_m))) {
-      const glm::dquat animated = tree_effector_orientation(tree, workspace_, slot.core_effector);
-      const glm::dquat target = base.rotation_in_base(target_m);
-      const glm::dquat goal = influence >= 1.0 ? target : godot_slerp(animated, target, influence);
+    glm::dquat target_rotation_global;
+    if (wr > 0.0 && rotation_of_basis(glm::dmat3(target_m), target_rotation_global)) {
+      const glm::dquat target = base.rotation_in_base(target_rotation_global);
+      glm::dquat goal = target;
+      if (!(influence >= 1.0)) {
+        animated_poses();
+        goal = godot_slerp(tree_effector_orientation(tree, workspace_, slot.core_effector), target, influence);
+      }
       // A radian counts like the longest lever it swings, in metres (Tree::lever; rotation_weight 1).
       const double length = std::max(tree.lever(slot.core_effector), 1e-3);
       goals_[size_t(goal_count)] = {Goal::orientation(goal, slot.core_effector, wr * length * length), level};

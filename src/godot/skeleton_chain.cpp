@@ -137,6 +137,8 @@ bool has_rotation(const glm::dmat3& basis) {
   return orthonormal_rotation(basis, ignored);
 }
 
+bool rotation_of_basis(const glm::dmat3& basis, glm::dquat& out) { return orthonormal_rotation(basis, out); }
+
 // The core joint of one bone's settings. A disabled limit is not passed on (nor checked), and
 // neither is the twist axis when no limit of the ball joint uses it.
 JointDesc core_joint_of(const JointSettings& s) {
@@ -239,7 +241,11 @@ glm::dvec3 BaseFrame::point_in_base(const glm::dvec3& point_global) const {
 }
 
 glm::dquat BaseFrame::rotation_in_base(const glm::dmat4& transform_global) const {
-  return glm::normalize(glm::conjugate(rotation_global_from_base) * rotation_of_basis(glm::dmat3(transform_global)));
+  return rotation_in_base(rotation_of_basis(glm::dmat3(transform_global)));
+}
+
+glm::dquat BaseFrame::rotation_in_base(const glm::dquat& rotation_global) const {
+  return glm::normalize(glm::conjugate(rotation_global_from_base) * rotation_global);
 }
 
 // ---------------------------------------------------------------- build

@@ -110,6 +110,8 @@ glm::dquat rotation_of_basis(const glm::dmat3& basis);
 // False when rotation_of_basis() would fall back to identity: the basis is degenerate (a zero
 // scale on some axis) or not finite, so it has no rotation to pursue.
 bool has_rotation(const glm::dmat3& basis);
+// Both at once (one orthonormalization): false as has_rotation(), else `out` = rotation_of_basis().
+bool rotation_of_basis(const glm::dmat3& basis, glm::dquat& out);
 
 // The core joint of one bone's settings (IKChainJoint's properties), offset and rest rotation
 // left for the caller. A disabled limit is not passed on (nor checked), and neither is the twist
@@ -147,6 +149,8 @@ struct BaseFrame {
   glm::dvec3 point_in_base(const glm::dvec3& point_global) const;
   // The rotation part of a global transform, in base space.
   glm::dquat rotation_in_base(const glm::dmat4& transform_global) const;
+  // The same from that transform's rotation (rotation_of_basis() of its basis).
+  glm::dquat rotation_in_base(const glm::dquat& rotation_global) const;
 };
 
 // What update_pose() found.

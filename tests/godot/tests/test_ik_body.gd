@@ -539,6 +539,46 @@ func test_deterministic_output_is_bit_identical() -> void:
 	check(results[0] == results[1], "two bodies write bit-identical poses")
 
 
+# What a still skeleton keeps from frame to frame (its place, the pose of the root bone's parent,
+# the incoming pose) all changed between two frames: the second frame must read them again, so it
+# writes what a new body writes from the same inputs, bit for bit (`deterministic`), and reaches.
+func test_moved_skeleton_and_new_incoming_pose_are_read_again() -> void:
+	var hand_in_skeleton := Vector3(0.35, 0.95, 0.25)
+	var results := []
+	for run in 2:
+		var place := Node3D.new()
+		place.name = "Place%d" % run
+		case_root.add_child(place)
+		var skel := Body.humanoid()
+		place.add_child(skel)
+		var target := _target("LH%d" % run, Transform3D(Basis(), hand_in_skeleton))
+		var body := IKBody.new()
+		body.root_bone = "Hips"
+		body.deterministic = true
+		var e := Body.effector("LeftHand", null)
+		e.target = NodePath("../../../" + String(target.name))
+		body.effectors = [e]
+		skel.add_child(body)
+		if run == 0:
+			var first := await _capture(skel, body)
+			if not check(not first.is_empty(), "run 0: the first frame came"):
+				return
+		place.transform = Transform3D(Basis(Vector3(0, 1, 0), 0.5), Vector3(0.2, 0.1, -0.3))
+		target.global_transform = Transform3D(Basis(), place.transform * hand_in_skeleton)
+		skel.set_bone_pose_position(skel.get_bone_parent(skel.find_bone("Hips")), Vector3(0.05, 0.0, 0.02))
+		var spine := skel.find_bone("Spine")
+		skel.set_bone_pose_rotation(spine, skel.get_bone_rest(spine).basis.get_rotation_quaternion() *
+				Quaternion(Vector3(1, 0, 0), 0.3))
+		var cap := await _capture(skel, body)
+		if not check(not cap.is_empty(), "run %d: skeleton_updated came" % run):
+			return
+		var hand := skel.global_transform * (cap["globals"][skel.find_bone("LeftHand")] as Transform3D)
+		check_le(hand.origin.distance_to(target.global_position), body.tolerance + FLOAT_SLACK,
+				"run %d: the hand reaches in the world (m)" % run)
+		results.append(cap["locals"])
+	check(results[0] == results[1], "the moved body writes what a new body writes there")
+
+
 # The inspector action (addons/ikchain/ik_body_inspector.gd; editor classes cannot be instantiated
 # outside the editor, so this checks that the plugin scripts compile and that what the action's undo
 # restores are IKBody's properties, all of which setup_humanoid() replaces).
