@@ -206,11 +206,19 @@ class TreeBfgs {
       // The time budget once per row of J J^T (up to 190 dot products over 250 DOFs: 100 us in
       // all for 12 goals, past the 20 us the bound allows).
       if (a > 0 && ws_.deadline.spent()) return false;
+      const int ea = problem_.goals[a / 3].goal.effector;
+      const int* support = tree_.support_list(ea);
       for (int b = 0; b <= a; ++b) {
+        // Rows a and b share only the DOFs of both effectors' common ancestors, a prefix of either
+        // support list (root first); every other product has a zero factor. The same products in
+        // the same (ascending) order as over every active DOF: the same sums.
+        const int eb = problem_.goals[b / 3].goal.effector;
         double sum = 0.0;
-        for (int c = 0; c < active_; ++c) {
-          const int d = ws_.active_dofs[c];
-          sum += J(a, d) * ws_.dof_scale[d] * J(b, d);
+        if (tree_.floating_root())
+          for (int d = 0; d < 3; ++d) sum += J(a, d) * ws_.dof_scale[d] * J(b, d);
+        for (int k = 0; k < tree_.support_count(ea) && tree_.supports(eb, support[k]); ++k) {
+          const int o = tree_.dof_offset(support[k]);
+          for (int d = o; d < o + tree_.dof_count_of(support[k]); ++d) sum += J(a, d) * ws_.dof_scale[d] * J(b, d);
         }
         A(a, b) = sum;
       }
