@@ -95,7 +95,10 @@ class TreeBfgs {
     f = tree_common::weighted_cost(err);
     g.setZero();
     auto J = ws_.jacobian.topRows(rows_);
-    J.setZero();
+    // Every evaluation writes the same entries (each goal's rows at its support columns) and the
+    // rest stays zero: zeroed once per solve (10 % of a warm solve when zeroed every time).
+    if (!jacobian_zeroed_) J.setZero();
+    jacobian_zeroed_ = true;
     for (int k = 0; k < problem_.goals.size; ++k) {
       const Goal& goal = problem_.goals[k].goal;
       const glm::dvec3 e = tree_goal_error(tree_, ws_, goal);
@@ -312,6 +315,7 @@ class TreeBfgs {
   Trial kept_;
   bool fresh_ = true;
   bool gauss_newton_next_ = false;  // the last step gained kGaussNewtonAgain: Gauss-Newton next, H kept
+  bool jacobian_zeroed_ = false;    // ws.jacobian's top rows zeroed in this solve
   uint64_t active_set_ = 0;
 };
 
