@@ -219,19 +219,24 @@ class TreeBfgs {
       if (a > 0 && ws_.deadline.spent()) return false;
       const int ea = problem_.goals[a / 3].goal.effector;
       const int* support = tree_.support_list(ea);
-      for (int b = 0; b <= a; ++b) {
-        // Rows a and b share only the DOFs of both effectors' common ancestors, a prefix of either
-        // support list (root first); every other product has a zero factor. The same products in
-        // the same (ascending) order as over every active DOF: the same sums.
-        const int eb = problem_.goals[b / 3].goal.effector;
-        double sum = 0.0;
+      // Row a against the three rows of each goal kb up to a's own: they share only the DOFs of
+      // both effectors' common ancestors, a prefix of either support list (root first); every other
+      // product has a zero factor. Each entry sums the same products in the same (ascending) order
+      // as over every active DOF: the same bits, a third of the loads of J(a, d).
+      for (int kb = 0; kb <= a / 3; ++kb) {
+        const int eb = problem_.goals[kb].goal.effector, b0 = 3 * kb;
+        double sum[3] = {0.0, 0.0, 0.0};
+        auto add = [&](int d) {
+          const double x = J(a, d) * ws_.dof_scale[d];
+          for (int c = 0; c < 3; ++c) sum[c] += x * J(b0 + c, d);
+        };
         if (tree_.floating_root())
-          for (int d = 0; d < 3; ++d) sum += J(a, d) * ws_.dof_scale[d] * J(b, d);
+          for (int d = 0; d < 3; ++d) add(d);
         for (int k = 0; k < tree_.support_count(ea) && tree_.supports(eb, support[k]); ++k) {
           const int o = tree_.dof_offset(support[k]);
-          for (int d = o; d < o + tree_.dof_count_of(support[k]); ++d) sum += J(a, d) * ws_.dof_scale[d] * J(b, d);
+          for (int d = o; d < o + tree_.dof_count_of(support[k]); ++d) add(d);
         }
-        A(a, b) = sum;
+        for (int c = 0; c < 3 && b0 + c <= a; ++c) A(a, b0 + c) = sum[c];
       }
       trace += A(a, a);
     }
