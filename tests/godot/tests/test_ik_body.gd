@@ -1056,7 +1056,7 @@ func test_every_tree_solver_bends_the_straight_legs_of_the_set_up_humanoid() -> 
 			return
 		check(_all_finite(cap), label + ": every bone pose finite")
 		var result: Dictionary = cap["result"]
-		print("  %s, first frame: %s after %d sweeps, %.6f m" % [label, result["reason"], result["iterations"],
+		print("  %s, first frame: %s after %d iterations, %.6f m" % [label, result["reason"], result["iterations"],
 				result["position_error"]])
 		check_eq(result["reason"], "converged", label + ": reason")
 		if solver == IKBody.SOLVER_CCD:
