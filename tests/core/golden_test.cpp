@@ -125,7 +125,7 @@ const Golden kChainGolden[] = {
 const Golden kTreeGolden[] = {
     {"fixed_hands_feet_pos/ccd", 1, 60, 0, 0, 0.0012364263377061609},
     {"fixed_hands_feet_pos/dls", 0, 9, 0, 0, 5.7740747970856658e-06},
-    {"fixed_hands_feet_pos/bfgs", 0, 8, 0, 0, 5.4809050708692936e-09},
+    {"fixed_hands_feet_pos/bfgs", 0, 11, 0, 0, 2.5888335739898561e-09},
     {"fixed_hands_feet_pos/fabrik", 1, 60, 0, 0, 0.047439302257434472},
     {"fixed_five_6d/ccd", 1, 60, 0, 0, 0.060711237147392828},
     {"fixed_five_6d/dls", 0, 11, 0, 0, 2.0479672136076544e-07},
@@ -138,7 +138,7 @@ const Golden kTreeGolden[] = {
     {"fixed_posture/dls", 1, 60, 0, 0, 0.89322043749544078},
     {"floating_hands_feet_pos/ccd", 0, 51, 0, 0, 1.1535768936192165e-05},
     {"floating_hands_feet_pos/dls", 0, 10, 0, 0, 1.4835183287006941e-06},
-    {"floating_hands_feet_pos/bfgs", 0, 6, 0, 0, 2.4214644506216179e-08},
+    {"floating_hands_feet_pos/bfgs", 0, 8, 0, 0, 6.3021255620601108e-11},
     {"floating_hands_feet_pos/fabrik", 1, 60, 0, 0, 0.050393122371858744},
     {"floating_five_6d/ccd", 1, 60, 0, 0, 0.044209335111888758},
     {"floating_five_6d/dls", 0, 6, 0, 0, 3.9737738440716001e-06},
@@ -151,11 +151,11 @@ const Golden kTreeGolden[] = {
     {"floating_posture/dls", 1, 60, 0, 0, 0.71656195940176592},
     {"nolimits_hands_feet_pos/ccd", 0, 54, 0, 0, 3.2639778429230947e-06},
     {"nolimits_hands_feet_pos/dls", 0, 9, 0, 0, 1.8911374837656067e-07},
-    {"nolimits_hands_feet_pos/bfgs", 0, 9, 0, 0, 5.2791566493036579e-06},
+    {"nolimits_hands_feet_pos/bfgs", 0, 11, 0, 0, 3.5263139736121928e-06},
     {"nolimits_hands_feet_pos/fabrik", 0, 47, 0, 0, 1.0052732888228708e-05},
     {"nolimits_five_6d/ccd", 1, 60, 0, 0, 0.022666685982384346},
     {"nolimits_five_6d/dls", 0, 9, 0, 0, 1.1556825654487751e-05},
-    {"nolimits_five_6d/bfgs", 0, 13, 0, 0, 1.0059133715860714e-05},
+    {"nolimits_five_6d/bfgs", 0, 16, 0, 0, 4.1928359469444938e-07},
     {"nolimits_five_6d/fabrik", 1, 60, 0, 0, 2.1022613103430122e-05},
     {"nolimits_levels/ccd", 1, 60, 0, 0, 1.0393136372912146},
     {"nolimits_levels/dls", 1, 60, 0, 0, 0.98147446241506164},
@@ -163,7 +163,7 @@ const Golden kTreeGolden[] = {
     {"nolimits_levels/fabrik", 1, 60, 0, 0, 1.0494091056548756},
     {"nolimits_posture/dls", 1, 60, 0, 0, 0.98100817454756428},
     {"telescope_tree/dls", 0, 5, 0, 0, 4.7586125067766345e-08},
-    {"telescope_tree/bfgs", 0, 4, 0, 0, 8.1261631450069155e-09},
+    {"telescope_tree/bfgs", 0, 5, 0, 0, 5.8421249721833215e-06},
 };
 // clang-format on
 

@@ -22,11 +22,10 @@
 // from a Gauss-Newton step. With tens of DOFs and levels weighted 1e3 apart, H needs many pairs
 // before it knows the curvature, and a warm-started tracking frame crept for 60-100 iterations at
 // 1e-5 m; with the restart it converges in 3-9 (a hybrid, as Fletcher & Xu's for least squares).
-// And, as the chain BFGS (Fletcher & Xu's switch), a step that removed kGaussNewtonAgain of the cost
-// is followed by a Gauss-Newton step again, H kept: near the goals of a tracked frame that converges
-// as DLS does. body_bench --solver bfgs (every frame; before -> after): mean iterations warm
-// 2.9-3.2 -> 2.0-2.1, cold 9.3-10.4 -> 8.3-8.9, success unchanged. At the chain's 0.2 the cold
-// Boxing_Toes frames lost 12 successes (99.77 -> 99.38 %), at 0.5 18.
+// Not the chain BFGS's Fletcher & Xu switch (a Gauss-Newton step again after one that removed a
+// share of the cost, H kept): at 0.9 it cut the body bench's iterations by a third, but IKBody's
+// humanoid from straight legs with position-only feet then crept for 64 iterations where it
+// converges in 14 (test_ik_body::every_tree_solver_bends_the_straight_legs_of_the_set_up_humanoid).
 //
 // Structure. The gradient and J come from tree_jacobian_column over each goal's supports only (an
 // effector depends on its ancestors alone): O(goals x depth) columns per evaluation, and the
@@ -44,9 +43,6 @@ namespace {
 constexpr double kFirstTrialRotation = 1.0;  // rad, as bfgs.cpp
 constexpr double kMaxIterationRotation = 3.14159265358979323846;
 constexpr double kSlowStep = 0.25;           // a quasi-Newton step keeping more of the cost is slow
-// A step that removed at least this share of the cost makes the next direction Gauss-Newton's again,
-// H kept and updated (Fletcher & Xu's switch, as bfgs.cpp's kHybridGain; see the file comment).
-constexpr double kGaussNewtonAgain = 0.9;
 
 using Trial = bfgs::Trial<TreeErrors>;
 
@@ -323,7 +319,6 @@ class TreeBfgs {
   double dphi0_ = 0.0;
   Trial kept_;
   bool fresh_ = true;
-  bool gauss_newton_next_ = false;  // the last step gained kGaussNewtonAgain: Gauss-Newton next, H kept
   bool jacobian_zeroed_ = false;    // ws.jacobian's top rows zeroed in this solve
   uint64_t active_set_ = 0;
 };
@@ -350,8 +345,7 @@ TreeSolverStatus TreeBfgs::run() {
     const uint64_t signature = frozen_signature();
     if (signature != active_set_) fresh_ = true;
     active_set_ = signature;
-    bool gauss_newton = fresh_ || gauss_newton_next_;
-    gauss_newton_next_ = false;
+    bool gauss_newton = fresh_;
     if (!gauss_newton) {
       if (!quasi_newton_direction()) break;  // the time budget: kMaxIterations
       if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = gauss_newton = true;
@@ -377,7 +371,6 @@ TreeSolverStatus TreeBfgs::run() {
       break;
     }
     accept();
-    gauss_newton_next_ = f_before - f_ >= kGaussNewtonAgain * f_before;
     if (f_ < best) {
       best = f_;
       ws_.params_best = x_;
