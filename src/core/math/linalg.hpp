@@ -256,6 +256,22 @@ inline void lower_solve_rows(Cols l, int count, Cols xt, int rhs) {
     if (c < rhs) xk[c] /= d;
   }
 }
+// Out = X^T for the rows x cols matrix X, two by two entries per load and store pair (a copy:
+// no rounding).
+inline void transpose(Cols x, int rows, int cols, Cols out) {
+  int i = 0;
+  for (; i + 2 <= rows; i += 2) {
+    int j = 0;
+    for (; j + 2 <= cols; j += 2) {
+      const Pair c0 = load2(x.col(j) + i), c1 = load2(x.col(j + 1) + i);  // X(i.., j), X(i.., j + 1)
+      store2(out.col(i) + j, Pair(c0[0], c1[0]));
+      store2(out.col(i + 1) + j, Pair(c0[1], c1[1]));
+    }
+    if (j < cols) out(j, i) = x(i, j), out(j, i + 1) = x(i + 1, j);
+  }
+  if (i < rows)
+    for (int j = 0; j < cols; ++j) out(j, i) = x(i, j);
+}
 // x <- L^-T x (back substitution).
 inline void lower_transpose_solve(Cols l, int n, double* x) {
   for (int k = n - 1; k >= 0; --k) {
