@@ -279,6 +279,19 @@ inline void divide(double* y, double d, int n) {
   for (; i + 2 <= n; i += 2) store2(y + i, load2(y + i) / dv);
   if (i < n) y[i] /= d;
 }
+// y[i] = x[i] for i < n, two entries per load and store.
+inline void copy(double* y, const double* x, int n) {
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store2(y + i, load2(x + i));
+  if (i < n) y[i] = x[i];
+}
+// y[i] = x[i] + c for i < n, two entries per operation (each rounding as one).
+inline void copy_plus(double* y, const double* x, int n, double c) {
+  const Pair cv = Pair::Constant(c);
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store2(y + i, load2(x + i) + cv);
+  if (i < n) y[i] = x[i] + c;
+}
 // y[i] *= s for i < n.
 inline void scale(double* y, double s, int n) {
   const Pair sv = Pair::Constant(s);

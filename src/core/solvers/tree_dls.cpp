@@ -396,8 +396,7 @@ class HierarchicalStep {
       // The first level has no rows above: S is M's block itself (read, never written).
       const Cols S = b == 0 ? cols_of(ws_.row_square.topLeftCorner(m, m)) : cols_of(ws_.coupling.block(b, b, m, m));
       if (b > 0)
-        for (int j = 0; j < m; ++j)
-          for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
+        for (int j = 0; j < m; ++j) linalg::copy(S.col(j) + j, &M(b + j, b + j), m - j);
       const Cols W = cols_of(F.block(0, b, b, m));
       if (b > 0) {
         // W^T first, where F's new block row goes (m x b: its columns are W's rows, and gram()
@@ -410,14 +409,14 @@ class HierarchicalStep {
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
       for (int j = 0; j < m; ++j) {  // S + mu I (+ 0.0 off the diagonal, as S + 0 I rounds)
         K(j, j) = S(j, j) + mu;
-        for (int i = j + 1; i < m; ++i) K(i, j) = S(i, j) + 0.0;
+        linalg::copy_plus(K.col(j) + j + 1, S.col(j) + j + 1, m - j - 1, 0.0);
       }
       cholesky_lower(K, m, kMinPivot2);
       if (l + 1 < served_ || (factored_posture_ && l + 1 == levels_.count)) {
         const Cols D = cols_of(F.block(b, b, m, m));  // F's block row: [W^T (in place), D]
         for (int j = 0; j < m; ++j) {
           D(j, j) = S(j, j) + ridge;
-          for (int i = j + 1; i < m; ++i) D(i, j) = S(i, j) + 0.0;
+          linalg::copy_plus(D.col(j) + j + 1, S.col(j) + j + 1, m - j - 1, 0.0);
         }
         cholesky_lower(D, m, kMinPivot2);
       }
