@@ -496,54 +496,70 @@ class HierarchicalStep {
     return problem_.goals[ws_.goal_order[k]].goal.effector == problem_.goals[ws_.goal_order[l]].goal.effector;
   }
   // out[i] = (row first + i of J) . x for the `count` rows from `first` (whole goals), over the
-  // supports only: a foot's rows touch the hips and one leg, a few of the tree's columns.
+  // supports only: a foot's rows touch the hips and one leg, a few of the tree's columns. Two rows
+  // per operation (linalg::Pair), each summing its products in column order.
   void rows_times(int first, int count, const double* x, double* out) const {
+    using linalg::load2;
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int* runs = ws_.support_runs.data();
     const int end = (first + count) / 3;
     for (int k = first / 3; k < end; ++k) {
+      double* o = out + 3 * k - first;
       if (k + 1 < end && same_effector(k, k + 1)) {  // two goals on one effector: one pass
-        double o0 = 0.0, o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
+        Pair o01 = Pair::Zero(), o23 = Pair::Zero(), o45 = Pair::Zero();
         for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
           const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
           for (int c = c0; c < c1; ++c) {
             const double* col = J + c * ld + 3 * k;
-            o0 += col[0] * x[c], o1 += col[1] * x[c], o2 += col[2] * x[c];
-            o3 += col[3] * x[c], o4 += col[4] * x[c], o5 += col[5] * x[c];
+            const Pair xc = Pair::Constant(x[c]);
+            o01 += load2(col) * xc, o23 += load2(col + 2) * xc, o45 += load2(col + 4) * xc;
           }
         }
-        double* o = out + 3 * k - first;
-        o[0] = o0, o[1] = o1, o[2] = o2, o[3] = o3, o[4] = o4, o[5] = o5;
+        linalg::store2(o, o01), linalg::store2(o + 2, o23), linalg::store2(o + 4, o45);
         ++k;
         continue;
       }
-      double o0 = 0.0, o1 = 0.0, o2 = 0.0;
+      Pair o01 = Pair::Zero();
+      double o2 = 0.0;
       for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
         const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
         for (int c = c0; c < c1; ++c) {
           const double* col = J + c * ld + 3 * k;
-          o0 += col[0] * x[c], o1 += col[1] * x[c], o2 += col[2] * x[c];
+          o01 += load2(col) * Pair::Constant(x[c]);
+          o2 += col[2] * x[c];
         }
       }
-      double* o = out + 3 * k - first;
-      o[0] = o0, o[1] = o1, o[2] = o2;
+      linalg::store2(o, o01);
+      o[2] = o2;
     }
   }
-  // y += sign (rows first .. first + count of J)^T x, over the supports only.
+  // y += sign (rows first .. first + count of J)^T x, over the supports only; two columns per
+  // operation (linalg::Pair), each y[c] summing as the scalar expression does.
   void add_rows_transpose(int first, int count, const double* x, double sign, double* y) const {
+    using linalg::load2;
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int* runs = ws_.support_runs.data();
     const int end = (first + count) / 3;
+    // Entry i of columns c and c + 1 (col points at column c's).
+    auto across = [ld](const double* col, int i) { return Pair(col[i], col[i + ld]); };
     for (int k = first / 3; k < end; ++k) {
       const double* xk = x + 3 * k - first;
       const double x0 = sign * xk[0], x1 = sign * xk[1], x2 = sign * xk[2];
+      const Pair v0 = Pair::Constant(x0), v1 = Pair::Constant(x1), v2 = Pair::Constant(x2);
       if (k + 1 < end && same_effector(k, k + 1)) {  // two goals on one effector: one pass, y[c]
         const double x3 = sign * xk[3], x4 = sign * xk[4], x5 = sign * xk[5];  // gets k's, then k + 1's
+        const Pair v3 = Pair::Constant(x3), v4 = Pair::Constant(x4), v5 = Pair::Constant(x5);
         for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
           const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
-          for (int c = c0; c < c1; ++c) {
+          int c = c0;
+          for (; c + 2 <= c1; c += 2) {
+            const double* col = J + c * ld + 3 * k;
+            const Pair yk = load2(y + c) + (across(col, 0) * v0 + across(col, 1) * v1 + across(col, 2) * v2);
+            linalg::store2(y + c, yk + (across(col, 3) * v3 + across(col, 4) * v4 + across(col, 5) * v5));
+          }
+          if (c < c1) {
             const double* col = J + c * ld + 3 * k;
             const double yk = y[c] + (col[0] * x0 + col[1] * x1 + col[2] * x2);
             y[c] = yk + (col[3] * x3 + col[4] * x4 + col[5] * x5);
@@ -554,7 +570,12 @@ class HierarchicalStep {
       }
       for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
         const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
-        for (int c = c0; c < c1; ++c) {
+        int c = c0;
+        for (; c + 2 <= c1; c += 2) {
+          const double* col = J + c * ld + 3 * k;
+          linalg::store2(y + c, load2(y + c) + (across(col, 0) * v0 + across(col, 1) * v1 + across(col, 2) * v2));
+        }
+        if (c < c1) {
           const double* col = J + c * ld + 3 * k;
           y[c] += col[0] * x0 + col[1] * x1 + col[2] * x2;
         }
