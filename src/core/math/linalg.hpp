@@ -339,7 +339,7 @@ inline void lower_solve(Cols l, int n, double* x) {
   for (int k = 0; k < n; ++k) {
     const double* ck = l.col(k);
     const double v = (x[k] /= ck[k]);
-    Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
+    subtract_scaled(x + k + 1, n - k - 1, ck + k + 1, v);
   }
 }
 // X <- L^-1 X for the `count` rows of X^T given as the columns of xt (xt.col(k) is row k of X, its
