@@ -104,7 +104,12 @@ const auto on_point_radius = tree_aim_at_on_point;
 }  // namespace
 
 glm::dvec3 tree_goal_error(const Tree& tree, const TreeWorkspace& ws, const Goal& g) {
-  return goal_error_at(g, tree_effector_position(tree, ws, g.effector), tree_effector_orientation(tree, ws, g.effector),
+  // Only what the goal's kind reads (goal_error_at): a position goal no orientation, an
+  // orientation or aim goal no position.
+  const bool position = g.kind == GoalKind::kPosition || g.kind == GoalKind::kAimAt;
+  const bool orientation = g.kind != GoalKind::kPosition;
+  return goal_error_at(g, position ? tree_effector_position(tree, ws, g.effector) : glm::dvec3(0.0),
+                       orientation ? tree_effector_orientation(tree, ws, g.effector) : glm::dquat(1.0, 0.0, 0.0, 0.0),
                        on_point_radius(tree, g));
 }
 

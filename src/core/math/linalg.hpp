@@ -209,6 +209,89 @@ inline void subtract_products(double* y, int n, const double* a, Eigen::Index ld
     default: break;
   }
 }
+// subtract_products() for two outputs over the same rows: y0[i] -= s0[j * s_stride] a[i + j * ld] and
+// y1[i] -= s1[j * s_stride] a[i + j * ld], each entry's products in j order as subtract_products()
+// takes them, with a's entries loaded once for both (a Cholesky factor's two adjacent columns, or
+// a substitution's two adjacent rows).
+template <int Pairs, bool Odd>
+inline void subtract_products2_rows(double* y0, double* y1, const double* a, Eigen::Index ld, const double* s0,
+                                    const double* s1, Eigen::Index s_stride, int count) {
+  static_assert(Pairs >= 0 && Pairs <= 4, "at most 8 rows of two outputs in registers");
+  Pair u0, u1, u2, u3, v0, v1, v2, v3;
+  double u_last = 0.0, v_last = 0.0;
+  if constexpr (Pairs > 0) u0 = load2(y0), v0 = load2(y1);
+  if constexpr (Pairs > 1) u1 = load2(y0 + 2), v1 = load2(y1 + 2);
+  if constexpr (Pairs > 2) u2 = load2(y0 + 4), v2 = load2(y1 + 4);
+  if constexpr (Pairs > 3) u3 = load2(y0 + 6), v3 = load2(y1 + 6);
+  if constexpr (Odd) u_last = y0[2 * Pairs], v_last = y1[2 * Pairs];
+  for (int j = 0; j < count; ++j, a += ld, s0 += s_stride, s1 += s_stride) {
+    const Pair su = Pair::Constant(*s0), sv = Pair::Constant(*s1);
+    if constexpr (Pairs > 0) {
+      const Pair a0 = load2(a);
+      u0 -= su * a0, v0 -= sv * a0;
+    }
+    if constexpr (Pairs > 1) {
+      const Pair a1 = load2(a + 2);
+      u1 -= su * a1, v1 -= sv * a1;
+    }
+    if constexpr (Pairs > 2) {
+      const Pair a2 = load2(a + 4);
+      u2 -= su * a2, v2 -= sv * a2;
+    }
+    if constexpr (Pairs > 3) {
+      const Pair a3 = load2(a + 6);
+      u3 -= su * a3, v3 -= sv * a3;
+    }
+    if constexpr (Odd) u_last -= *s0 * a[2 * Pairs], v_last -= *s1 * a[2 * Pairs];
+  }
+  if constexpr (Pairs > 0) store2(y0, u0), store2(y1, v0);
+  if constexpr (Pairs > 1) store2(y0 + 2, u1), store2(y1 + 2, v1);
+  if constexpr (Pairs > 2) store2(y0 + 4, u2), store2(y1 + 4, v2);
+  if constexpr (Pairs > 3) store2(y0 + 6, u3), store2(y1 + 6, v3);
+  if constexpr (Odd) y0[2 * Pairs] = u_last, y1[2 * Pairs] = v_last;
+}
+inline void subtract_products2(double* y0, double* y1, int n, const double* a, Eigen::Index ld, const double* s0,
+                               const double* s1, Eigen::Index s_stride, int count) {
+  int i = 0;
+  for (; i + 8 <= n; i += 8) subtract_products2_rows<4, false>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count);
+  switch (n - i) {
+    case 1: subtract_products2_rows<0, true>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count); break;
+    case 2: subtract_products2_rows<1, false>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count); break;
+    case 3: subtract_products2_rows<1, true>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count); break;
+    case 4: subtract_products2_rows<2, false>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count); break;
+    case 5: subtract_products2_rows<2, true>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count); break;
+    case 6: subtract_products2_rows<3, false>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count); break;
+    case 7: subtract_products2_rows<3, true>(y0 + i, y1 + i, a + i, ld, s0, s1, s_stride, count); break;
+    default: break;
+  }
+}
+// y[i] -= s a[i] for i < n (one more product of subtract_products(), in place).
+inline void subtract_scaled(double* y, int n, const double* a, double s) {
+  const Pair sv = Pair::Constant(s);
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store2(y + i, load2(y + i) - sv * load2(a + i));
+  if (i < n) y[i] -= s * a[i];
+}
+// y[i] /= d for i < n (two divisions per operation, each rounding as one).
+inline void divide(double* y, double d, int n) {
+  const Pair dv = Pair::Constant(d);
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store2(y + i, load2(y + i) / dv);
+  if (i < n) y[i] /= d;
+}
+// y[i] = x[i] for i < n, two entries per load and store.
+inline void copy(double* y, const double* x, int n) {
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store2(y + i, load2(x + i));
+  if (i < n) y[i] = x[i];
+}
+// y[i] = x[i] + c for i < n, two entries per operation (each rounding as one).
+inline void copy_plus(double* y, const double* x, int n, double c) {
+  const Pair cv = Pair::Constant(c);
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store2(y + i, load2(x + i) + cv);
+  if (i < n) y[i] = x[i] + c;
+}
 // y[i] *= s for i < n.
 inline void scale(double* y, double s, int n) {
   const Pair sv = Pair::Constant(s);
@@ -224,8 +307,26 @@ using ConstSeg = Eigen::Map<const Eigen::VectorXd>;
 // own); pivots below min_pivot2 are raised to it (cholesky_factor's rule). Computed a column at a
 // time (left-looking), which rounds as right-looking does: every entry gets the same products
 // subtracted in the same order (column 0's first), then the same scaling.
+// Two columns at a time: column k + 1 takes its products j < k with column k's (over rows k..,
+// its upper entry at row k computed and put back), then the j = k one once column k is done.
 inline void cholesky_lower(Cols a, int n, double min_pivot2) {
-  for (int k = 0; k < n; ++k) {
+  int k = 0;
+  for (; k + 2 <= n; k += 2) {
+    double* ck = a.col(k);
+    double* ck1 = a.col(k + 1);
+    const double upper = ck1[k];  // not L's: left as it was
+    // - L(i, j) L(k, j) and - L(i, j) L(k + 1, j), j < k
+    subtract_products2(ck + k, ck1 + k, n - k, a.p + k, a.ld, a.p + k, a.p + k + 1, a.ld, k);
+    ck1[k] = upper;
+    const double d = std::sqrt(std::max(ck[k], min_pivot2));
+    ck[k] = d;
+    scale(ck + k + 1, 1.0 / d, n - k - 1);
+    subtract_scaled(ck1 + k + 1, n - k - 1, ck + k + 1, ck[k + 1]);  // - L(i, k) L(k + 1, k)
+    const double d1 = std::sqrt(std::max(ck1[k + 1], min_pivot2));
+    ck1[k + 1] = d1;
+    scale(ck1 + k + 2, 1.0 / d1, n - k - 2);
+  }
+  if (k < n) {
     double* ck = a.col(k);
     subtract_products(ck + k, n - k, a.p + k, a.ld, a.p + k, a.ld, k);  // - L(i, j) L(k, j), j < k
     const double d = std::sqrt(std::max(ck[k], min_pivot2));
@@ -238,23 +339,47 @@ inline void lower_solve(Cols l, int n, double* x) {
   for (int k = 0; k < n; ++k) {
     const double* ck = l.col(k);
     const double v = (x[k] /= ck[k]);
-    Seg(x + k + 1, n - k - 1) -= v * ConstSeg(ck + k + 1, n - k - 1);
+    subtract_scaled(x + k + 1, n - k - 1, ck + k + 1, v);
   }
 }
 // X <- L^-1 X for the `count` rows of X^T given as the columns of xt (xt.col(k) is row k of X, its
 // `rhs` entries contiguous): lower_solve() on each column of X at once, rounding as it does (each
 // entry gets the products of the rows above it subtracted in row order, then the division), with
 // the right-hand sides as the vectorised dimension instead of a column's short tail.
+// Two rows at a time: row k + 1 takes its products j < k with row k's, then the j = k one once row k
+// is done.
 inline void lower_solve_rows(Cols l, int count, Cols xt, int rhs) {
-  for (int k = 0; k < count; ++k) {
+  int k = 0;
+  for (; k + 2 <= count; k += 2) {
+    double* xk = xt.col(k);
+    double* xk1 = xt.col(k + 1);
+    // - L(k, j) X(j, :) and - L(k + 1, j) X(j, :), j < k
+    subtract_products2(xk, xk1, rhs, xt.p, xt.ld, l.p + k, l.p + k + 1, l.ld, k);
+    divide(xk, l(k, k), rhs);
+    subtract_scaled(xk1, rhs, xk, l(k + 1, k));  // - L(k + 1, k) X(k, :)
+    divide(xk1, l(k + 1, k + 1), rhs);
+  }
+  if (k < count) {
     double* xk = xt.col(k);
     subtract_products(xk, rhs, xt.p, xt.ld, l.p + k, l.ld, k);  // - L(k, j) X(j, :), j < k
-    const double d = l(k, k);
-    const Pair dv = Pair::Constant(d);  // two divisions per operation, each rounding as one
-    int c = 0;
-    for (; c + 2 <= rhs; c += 2) store2(xk + c, load2(xk + c) / dv);
-    if (c < rhs) xk[c] /= d;
+    divide(xk, l(k, k), rhs);
   }
+}
+// Out = X^T for the rows x cols matrix X, two by two entries per load and store pair (a copy:
+// no rounding).
+inline void transpose(Cols x, int rows, int cols, Cols out) {
+  int i = 0;
+  for (; i + 2 <= rows; i += 2) {
+    int j = 0;
+    for (; j + 2 <= cols; j += 2) {
+      const Pair c0 = load2(x.col(j) + i), c1 = load2(x.col(j + 1) + i);  // X(i.., j), X(i.., j + 1)
+      store2(out.col(i) + j, Pair(c0[0], c1[0]));
+      store2(out.col(i + 1) + j, Pair(c0[1], c1[1]));
+    }
+    if (j < cols) out(j, i) = x(i, j), out(j, i + 1) = x(i + 1, j);
+  }
+  if (i < rows)
+    for (int j = 0; j < cols; ++j) out(j, i) = x(i, j);
 }
 // x <- L^-T x (back substitution).
 inline void lower_transpose_solve(Cols l, int n, double* x) {

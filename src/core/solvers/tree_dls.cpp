@@ -329,8 +329,7 @@ class HierarchicalStep {
       // An active-set pass repeats the Gram product and the factorisations: the budget is read
       // before it (issue 16, item 6); spent, there is no step (the caller stops).
       if (pass > 0 && ws_.deadline.spent()) return false;
-      auto M = ws_.row_square.topLeftCorner(rows_, rows_);
-      gram(M);  // of J as the limits leave it (correct() and chord() reuse it: the same J)
+      gram();  // of J as the limits leave it (correct() and chord() reuse it: the same J)
       factor(mu, posture);
       if (!solve(params, ws_.residual, posture ? posture_gain : 0.0)) return false;
       if (pass == kLimitPasses || !block_limits(params)) break;
@@ -397,31 +396,27 @@ class HierarchicalStep {
       // The first level has no rows above: S is M's block itself (read, never written).
       const Cols S = b == 0 ? cols_of(ws_.row_square.topLeftCorner(m, m)) : cols_of(ws_.coupling.block(b, b, m, m));
       if (b > 0)
-        for (int j = 0; j < m; ++j)
-          for (int i = j; i < m; ++i) S(i, j) = M(b + i, b + j);
+        for (int j = 0; j < m; ++j) linalg::copy(S.col(j) + j, &M(b + j, b + j), m - j);
       const Cols W = cols_of(F.block(0, b, b, m));
       if (b > 0) {
-        // W^T first, where F's new block row goes (m x b: its columns are W's rows), by one
-        // substitution over all m right-hand sides at once; then W from it.
+        // W^T first, where F's new block row goes (m x b: its columns are W's rows, and gram()
+        // left A Jl^T there), by one substitution over all m right-hand sides at once; then W.
         const Cols Wt = cols_of(F.block(b, 0, m, b));
-        for (int j = 0; j < b; ++j)
-          for (int i = 0; i < m; ++i) Wt(i, j) = M(b + i, j);
         linalg::lower_solve_rows(cols_of(F), b, Wt, m);
-        for (int j = 0; j < m; ++j)
-          for (int i = 0; i < b; ++i) W(i, j) = Wt(j, i);
+        linalg::transpose(Wt, m, b, W);
         subtract_gram_of_columns(W, b, m, S);
       }
       const Cols K = cols_of(ws_.row_factor.block(b, b, m, m));
       for (int j = 0; j < m; ++j) {  // S + mu I (+ 0.0 off the diagonal, as S + 0 I rounds)
         K(j, j) = S(j, j) + mu;
-        for (int i = j + 1; i < m; ++i) K(i, j) = S(i, j) + 0.0;
+        linalg::copy_plus(K.col(j) + j + 1, S.col(j) + j + 1, m - j - 1, 0.0);
       }
       cholesky_lower(K, m, kMinPivot2);
       if (l + 1 < served_ || (factored_posture_ && l + 1 == levels_.count)) {
         const Cols D = cols_of(F.block(b, b, m, m));  // F's block row: [W^T (in place), D]
         for (int j = 0; j < m; ++j) {
           D(j, j) = S(j, j) + ridge;
-          for (int i = j + 1; i < m; ++i) D(i, j) = S(i, j) + 0.0;
+          linalg::copy_plus(D.col(j) + j + 1, S.col(j) + j + 1, m - j - 1, 0.0);
         }
         cholesky_lower(D, m, kMinPivot2);
       }
@@ -501,54 +496,70 @@ class HierarchicalStep {
     return problem_.goals[ws_.goal_order[k]].goal.effector == problem_.goals[ws_.goal_order[l]].goal.effector;
   }
   // out[i] = (row first + i of J) . x for the `count` rows from `first` (whole goals), over the
-  // supports only: a foot's rows touch the hips and one leg, a few of the tree's columns.
+  // supports only: a foot's rows touch the hips and one leg, a few of the tree's columns. Two rows
+  // per operation (linalg::Pair), each summing its products in column order.
   void rows_times(int first, int count, const double* x, double* out) const {
+    using linalg::load2;
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int* runs = ws_.support_runs.data();
     const int end = (first + count) / 3;
     for (int k = first / 3; k < end; ++k) {
+      double* o = out + 3 * k - first;
       if (k + 1 < end && same_effector(k, k + 1)) {  // two goals on one effector: one pass
-        double o0 = 0.0, o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
+        Pair o01 = Pair::Zero(), o23 = Pair::Zero(), o45 = Pair::Zero();
         for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
           const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
           for (int c = c0; c < c1; ++c) {
             const double* col = J + c * ld + 3 * k;
-            o0 += col[0] * x[c], o1 += col[1] * x[c], o2 += col[2] * x[c];
-            o3 += col[3] * x[c], o4 += col[4] * x[c], o5 += col[5] * x[c];
+            const Pair xc = Pair::Constant(x[c]);
+            o01 += load2(col) * xc, o23 += load2(col + 2) * xc, o45 += load2(col + 4) * xc;
           }
         }
-        double* o = out + 3 * k - first;
-        o[0] = o0, o[1] = o1, o[2] = o2, o[3] = o3, o[4] = o4, o[5] = o5;
+        linalg::store2(o, o01), linalg::store2(o + 2, o23), linalg::store2(o + 4, o45);
         ++k;
         continue;
       }
-      double o0 = 0.0, o1 = 0.0, o2 = 0.0;
+      Pair o01 = Pair::Zero();
+      double o2 = 0.0;
       for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
         const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
         for (int c = c0; c < c1; ++c) {
           const double* col = J + c * ld + 3 * k;
-          o0 += col[0] * x[c], o1 += col[1] * x[c], o2 += col[2] * x[c];
+          o01 += load2(col) * Pair::Constant(x[c]);
+          o2 += col[2] * x[c];
         }
       }
-      double* o = out + 3 * k - first;
-      o[0] = o0, o[1] = o1, o[2] = o2;
+      linalg::store2(o, o01);
+      o[2] = o2;
     }
   }
-  // y += sign (rows first .. first + count of J)^T x, over the supports only.
+  // y += sign (rows first .. first + count of J)^T x, over the supports only; two columns per
+  // operation (linalg::Pair), each y[c] summing as the scalar expression does.
   void add_rows_transpose(int first, int count, const double* x, double sign, double* y) const {
+    using linalg::load2;
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int* runs = ws_.support_runs.data();
     const int end = (first + count) / 3;
+    // Entry i of columns c and c + 1 (col points at column c's).
+    auto across = [ld](const double* col, int i) { return Pair(col[i], col[i + ld]); };
     for (int k = first / 3; k < end; ++k) {
       const double* xk = x + 3 * k - first;
       const double x0 = sign * xk[0], x1 = sign * xk[1], x2 = sign * xk[2];
+      const Pair v0 = Pair::Constant(x0), v1 = Pair::Constant(x1), v2 = Pair::Constant(x2);
       if (k + 1 < end && same_effector(k, k + 1)) {  // two goals on one effector: one pass, y[c]
         const double x3 = sign * xk[3], x4 = sign * xk[4], x5 = sign * xk[5];  // gets k's, then k + 1's
+        const Pair v3 = Pair::Constant(x3), v4 = Pair::Constant(x4), v5 = Pair::Constant(x5);
         for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
           const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
-          for (int c = c0; c < c1; ++c) {
+          int c = c0;
+          for (; c + 2 <= c1; c += 2) {
+            const double* col = J + c * ld + 3 * k;
+            const Pair yk = load2(y + c) + (across(col, 0) * v0 + across(col, 1) * v1 + across(col, 2) * v2);
+            linalg::store2(y + c, yk + (across(col, 3) * v3 + across(col, 4) * v4 + across(col, 5) * v5));
+          }
+          if (c < c1) {
             const double* col = J + c * ld + 3 * k;
             const double yk = y[c] + (col[0] * x0 + col[1] * x1 + col[2] * x2);
             y[c] = yk + (col[3] * x3 + col[4] * x4 + col[5] * x5);
@@ -559,7 +570,12 @@ class HierarchicalStep {
       }
       for (int r = ws_.run_begin[k]; r < ws_.run_begin[k + 1]; ++r) {
         const int c0 = runs[2 * r], c1 = c0 + runs[2 * r + 1];
-        for (int c = c0; c < c1; ++c) {
+        int c = c0;
+        for (; c + 2 <= c1; c += 2) {
+          const double* col = J + c * ld + 3 * k;
+          linalg::store2(y + c, load2(y + c) + (across(col, 0) * v0 + across(col, 1) * v1 + across(col, 2) * v2));
+        }
+        if (c < c1) {
           const double* col = J + c * ld + 3 * k;
           y[c] += col[0] * x0 + col[1] * x1 + col[2] * x2;
         }
@@ -593,14 +609,19 @@ class HierarchicalStep {
   // supports, which are the common prefix of their root-first support lists (Pinocchio's
   // "supports"), so each 3x3 block sums over those few columns instead of all of them. A joint's
   // columns are adjacent (active_dofs keeps the DOF order), so a block sums 3 x 3 products per
-  // joint, in registers.
-  template <class Gram>
-  void gram(Gram& M) const {
+  // joint, in registers. The blocks within a level go to M (ws.row_square); those of a level's
+  // rows against the rows above it (A Jl^T, transposed) straight to where factor() turns them
+  // into W^T in place: F's block row of the level (ws.gram_factor, the same shape as M).
+  void gram() const {
     const double* J = ws_.jacobian.data();
     const Eigen::Index ld = ws_.jacobian.outerStride();
     const int goals = problem_.goals.size;
     const int* runs = ws_.support_runs.data();
-    const Eigen::Index ld_m = M.outerStride();
+    const Eigen::Index ld_m = ws_.row_square.outerStride();
+    double* const M = ws_.row_square.data();
+    double* const F = ws_.gram_factor.data();
+    // Where entry (row, column) of block (a, b) goes: F when b's rows lie above a's level.
+    auto at = [&](int a, int b, int level_begin) { return (3 * b < level_begin ? F : M) + 3 * a + 3 * b * ld_m; };
     // Calls add(column) for goal a's first shared_columns(a, b) columns: the runs of the supports'
     // common prefix, in order.
     auto for_shared_columns = [&](int a, int b, auto&& add) {
@@ -614,7 +635,7 @@ class HierarchicalStep {
     // entries are written too, and never read). Two entries per operation (linalg::Pair): (b00,
     // b10), (b01, b11), (b02, b12), (b20, b21), then b22 alone; each entry gets the same products
     // added in the same order as a scalar sum, so it rounds as one.
-    auto block = [&](int a, int b) {
+    auto block = [&](int a, int b, int level_begin) {
       Pair p0 = Pair::Zero(), p1 = Pair::Zero(), p2 = Pair::Zero(), q = Pair::Zero();
       double b22 = 0.0;
       for_shared_columns(a, b, [&](const double* col) {
@@ -626,7 +647,7 @@ class HierarchicalStep {
         q += Pair::Constant(a2) * c01;
         b22 += a2 * c2;
       });
-      double* m = &M(3 * a, 3 * b);
+      double* m = at(a, b, level_begin);
       linalg::store2(m, p0);
       linalg::store2(m + ld_m, p1);
       linalg::store2(m + 2 * ld_m, p2);
@@ -637,7 +658,7 @@ class HierarchicalStep {
     // Blocks (a, b) and (a + 1, b) at once, for goals a and a + 1 on one effector (the same
     // support, so the same shared columns): their six rows in three pairs times each of b's three
     // rows, each entry summed as block() sums it.
-    auto block_pair = [&](int a, int b) {
+    auto block_pair = [&](int a, int b, int level_begin) {
       Pair p00 = Pair::Zero(), p01 = Pair::Zero(), p02 = Pair::Zero();
       Pair p10 = Pair::Zero(), p11 = Pair::Zero(), p12 = Pair::Zero();
       Pair p20 = Pair::Zero(), p21 = Pair::Zero(), p22 = Pair::Zero();
@@ -650,21 +671,25 @@ class HierarchicalStep {
         p01 += r0 * c1, p11 += r1 * c1, p21 += r2 * c1;
         p02 += r0 * c2, p12 += r1 * c2, p22 += r2 * c2;
       });
-      double* m = &M(3 * a, 3 * b);  // rows 3a .. 3a + 5 of columns 3b .. 3b + 2
+      double* m = at(a, b, level_begin);  // rows 3a .. 3a + 5 of columns 3b .. 3b + 2
       linalg::store2(m, p00), linalg::store2(m + 2, p10), linalg::store2(m + 4, p20);
       m += ld_m;
       linalg::store2(m, p01), linalg::store2(m + 2, p11), linalg::store2(m + 4, p21);
       m += ld_m;
       linalg::store2(m, p02), linalg::store2(m + 2, p12), linalg::store2(m + 4, p22);
     };
+    int level = 0;
     for (int a = 0; a < goals; ++a) {
-      if (a + 1 < goals && same_effector(a, a + 1)) {
-        for (int b = 0; b <= a; ++b) block_pair(a, b);
+      while (3 * a >= levels_.end[level]) ++level;
+      const int level_begin = levels_.begin[level];
+      // Two goals on one effector in one level (a level boundary between them: one at a time).
+      if (a + 1 < goals && same_effector(a, a + 1) && 3 * (a + 1) < levels_.end[level]) {
+        for (int b = 0; b <= a; ++b) block_pair(a, b, level_begin);
         ++a;
-        block(a, a);
+        block(a, a, level_begin);
         continue;
       }
-      for (int b = 0; b <= a; ++b) block(a, b);
+      for (int b = 0; b <= a; ++b) block(a, b, level_begin);
     }
   }
 
