@@ -21,10 +21,11 @@
 // pose's FK and measure) is the one stretch every solve has measured at its first reading, and an
 // iteration's longest stretch outgrows it by a ratio that depends on the solver (a DLS step is
 // 2.6 set-ups at the median and 5.5 at the 90th percentile on 100-600 DOF; a FABRIK sweep's stretch
-// 1.4 and 2.5): solve() sets it from one table (stretch_ratio_of in solve.cpp); trees use
-// kFirstStretchRatio. Without the floor the first stretches of a first iteration that grow (DLS's
-// step after its linearisation, CCD's fits toward the root where more goals lie beyond the joint)
-// ran past the bound on small budgets (docs/benchmarks.md, h21budget). On a clock whose gaps are
+// 1.4 and 2.5): solve() sets it from one table (stretch_ratio_of in solve.cpp). The trees set
+// none: their first reading takes kFirstStretchRatio, the later ones the longest gap. Without the
+// floor, stretches that grow within a first iteration (DLS's step after its linearisation, CCD's
+// fits toward the root, where more goals lie beyond the joint) ran past the bound on small budgets
+// (docs/benchmarks.md, h21budget: 12 of 20 solves over it stopped after one iteration). On a clock whose gaps are
 // short against the slack (the fake-clock tests' ticks of 1 us) this never comes before the
 // budget's own end; `foreseen` says when it did.
 #pragma once
@@ -45,8 +46,8 @@ struct Deadline {
   double now_us() const { return clock_us ? clock_us() : steady_now_us(); }
 
   // Arms the budget and the cap (each 0 = none) from `start_us` (a now_us() reading); clears `hit`.
-  // `ratio`: the longest stretch the set-up predicts, in set-up gaps (stretch_ratio).
-  void start(double budget_us, double start_us, double cap_us = 0.0, double ratio = kFirstStretchRatio) {
+  // `ratio`: the longest stretch the set-up predicts, in set-up gaps (stretch_ratio; 0: none).
+  void start(double budget_us, double start_us, double cap_us = 0.0, double ratio = 0.0) {
     const bool budget = budget_us > 0.0, cap = cap_us > 0.0;
     active = budget || cap;
     every_call = budget;
@@ -78,8 +79,10 @@ struct Deadline {
     // The first reading has seen only the set-up (the start pose's FK and measure, a solver's first
     // linearisation): the solve's longest stretch is stretch_ratio of it until one longer is seen.
     // (At the first reading the longest gap is this one's: the dispatcher's look measured a part of it.)
+    // Without a ratio of its own (the trees) the set-up predicts only the first stretch.
     if (first) setup_gap_us = gap;
-    const double ahead = std::max(longest_gap_us, stretch_ratio * setup_gap_us) + longest_gap_us;
+    const double ratio = stretch_ratio > 0.0 ? stretch_ratio : first ? kFirstStretchRatio : 0.0;
+    const double ahead = std::max(longest_gap_us, ratio * setup_gap_us) + longest_gap_us;
     if (now + ahead + kReserveUs <= bound_end_us) return false;
     foreseen = true;
     return hit = true;
@@ -139,8 +142,8 @@ struct Deadline {
   // The bound on a budget-bound solve's time (issue 16, item 6), and what a stop keeps in reserve
   // beyond the predicted stretches (the clock reading's own cost and rounding).
   static constexpr double kBoundRatio = 1.1, kBoundSlackUs = 20.0, kReserveUs = 1.0;
-  // The set-up's prediction of the longest stretch, in set-up gaps, where solve() has none of its
-  // own (the trees; the dispatcher's look before the solver's set-up).
+  // The set-up's prediction of the first stretch, in set-up gaps, where solve() gives no ratio (the
+  // trees' first reading; the dispatcher's look before the solver's set-up).
   static constexpr double kFirstStretchRatio = 3.0;
 
   bool active = false;
@@ -155,7 +158,7 @@ struct Deadline {
   double bound_end_us = 0.0;     // start + kBoundRatio x budget + kBoundSlackUs
   double last_reading_us = 0.0, longest_gap_us = 0.0;  // budget readings: the last, the longest gap between two
   double setup_gap_us = 0.0;  // from start() to the first budget reading
-  double stretch_ratio = kFirstStretchRatio;  // the longest stretch predicted, in set-up gaps (start())
+  double stretch_ratio = 0.0;  // the longest stretch predicted, in set-up gaps (start(); 0: none)
   unsigned budget_readings = 0;
 
  private:

@@ -588,14 +588,16 @@ TEST(Issue16, DeadlineSetUpPredictsTheLongestStretchUntilOneIsSeen) {
   g_set_now = 70.0;
   EXPECT_TRUE(d.spent());  // 70 + 55 + 12 + 1 > 130, though 70 + 2 x 12 + 1 is not
   EXPECT_TRUE(d.foreseen);
-  // With the ratio the trees keep (3 set-ups: 30 us), the same readings go on two more.
+  // Without a ratio (the trees) the first reading predicts kFirstStretchRatio set-ups, the later ones
+  // two longest gaps: the same readings go on to the budget's end.
   d.start(100.0, 0.0);
-  for (double t = 10.0; t <= 82.0; t += 12.0) {
+  for (double t = 10.0; t <= 94.0; t += 12.0) {
     g_set_now = t;
-    EXPECT_FALSE(d.spent()) << t;  // 82 + 30 + 12 + 1 <= 130
+    EXPECT_FALSE(d.spent()) << t;  // 94 + 2 x 12 + 1 <= 130
   }
-  g_set_now = 94.0;
+  g_set_now = 106.0;
   EXPECT_TRUE(d.spent());
+  EXPECT_FALSE(d.foreseen);  // the budget's own end
   // A gap longer than the prediction takes over: 40 us after a 10 us set-up at 5.5 x.
   d.start(1000.0, 0.0, 0.0, 5.5);
   g_set_now = 10.0;
