@@ -25,7 +25,8 @@
 // none: their first reading takes kFirstStretchRatio, the later ones the longest gap. Without the
 // floor, stretches that grow within a first iteration (DLS's step after its linearisation, CCD's
 // fits toward the root, where more goals lie beyond the joint) ran past the bound on small budgets
-// (docs/benchmarks.md, h21budget: 12 of 20 solves over it stopped after one iteration). On a clock whose gaps are
+// (docs/benchmarks.md, h21budget: 10-17 of 16-25 solves over it stopped after one iteration; with
+// it 1-2 of 4-8, in runs of 120 s; the fuzzer's ten minutes found nothing). On a clock whose gaps are
 // short against the slack (the fake-clock tests' ticks of 1 us) this never comes before the
 // budget's own end; `foreseen` says when it did.
 #pragma once
