@@ -16,8 +16,9 @@
 // on the thread's CPU clock, so that a preempted time slice cannot hide an overrun.
 //
 //   budget_bench [--seconds S] [--seed N] [--cpu-clock] [--case I] [--out DIR] [--list-over]
-// Prints one line per solver (solves, budget-bound ones, solves over the bound, worst CPU / budget
-// and worst excess over the bound, with the case that made it) and writes DIR/budget.json
+// Prints one line per solver (solves, budget-bound ones, those stopped before their first iteration,
+// solves over the bound, worst CPU / budget and worst excess over the bound, with the case that
+// made it) and writes DIR/budget.json
 // (default build/bench). A solve over the bound is re-run twice and judged by its least CPU time
 // (a shared machine charges a run interrupts and cache flushes that are not the solve's); the
 // count on first runs is printed too. Every solve follows an untimed warm-up solve of the same
@@ -341,6 +342,7 @@ TreeCase make_tree_case(Rng& r) {
 struct Stats {
   std::string name;
   long solves = 0, exhausted = 0, over = 0;
+  long unmoved = 0;  // budget_exhausted before the first iteration (0 iterations)
   double worst_ratio = 0.0;         // CPU / budget
   double worst_excess = -INFINITY;  // CPU - (kRatio budget + kSlackUs), us
   long worst_case = -1;
@@ -508,7 +510,7 @@ int main(int argc, char** argv) {
   // large problem can alone outgrow the bound's 20 us of slack.
   const int kBuckets = 4;
   const int bucket_top[kBuckets] = {30, 100, 300, 1 << 30};
-  long bucket_solves[kBuckets] = {0}, bucket_over[kBuckets] = {0};
+  long bucket_solves[kBuckets] = {0}, bucket_over[kBuckets] = {0}, bucket_unmoved[kBuckets] = {0};
   const double t_end = wall_us() + seconds * 1e6;
   long index = 0, skipped = 0, raw_over = 0;
   long humanoid_solves = 0, humanoid_over = 0;
@@ -540,11 +542,13 @@ int main(int argc, char** argv) {
       if (o.dofs <= bucket_top[b]) {
         ++bucket_solves[b];
         bucket_over[b] += excess > 0.0;
+        bucket_unmoved[b] += o.exhausted && o.iterations == 0;
         break;
       }
     for (Stats* s : {&stats_of(o.solver), &all}) {
       ++s->solves;
       s->exhausted += o.exhausted;
+      s->unmoved += o.exhausted && o.iterations == 0;
       s->over += excess > 0.0;
       s->worst_ratio = std::max(s->worst_ratio, o.cpu / o.budget);
       if (excess > s->worst_excess) {
@@ -562,7 +566,7 @@ int main(int argc, char** argv) {
               "%ld cases (%ld skipped: input the drawn solver does not take), %.0f s, deadline on the %s clock\n",
               kRatio, kSlackUs, kMinBudgetUs, kMaxBudgetUs, static_cast<unsigned long long>(seed), index, skipped,
               seconds, g_cpu_clock ? "thread CPU" : "steady");
-  std::printf("  %-16s %8s %10s %6s %12s %14s  %s\n", "solver", "solves", "exhausted", "over", "worst x bud",
+  std::printf("  %-16s %8s %10s %8s %6s %12s %14s  %s\n", "solver", "solves", "exhausted", "0 it", "over", "worst x bud",
               "worst excess", "worst case (budget_bench --seed S --case I)");
   stats.push_back(all);
   std::string json = "{\"meta\": " + ::bench::meta_json_head(false) + ", \"seconds\": " + ::bench::json_number(seconds) +
@@ -572,11 +576,12 @@ int main(int argc, char** argv) {
                      std::to_string(kRatio).substr(0, 3) + " x budget + 20 us\"}, \"solvers\": [";
   for (size_t i = 0; i < stats.size(); ++i) {
     const Stats& s = stats[i];
-    std::printf("  %-16s %8ld %10ld %6ld %11.3fx %+12.1f us  case %ld: %s\n", s.name.c_str(), s.solves, s.exhausted,
-                s.over, s.worst_ratio, s.worst_excess, s.worst_case, s.worst_what.c_str());
+    std::printf("  %-16s %8ld %10ld %8ld %6ld %11.3fx %+12.1f us  case %ld: %s\n", s.name.c_str(), s.solves, s.exhausted,
+                s.unmoved, s.over, s.worst_ratio, s.worst_excess, s.worst_case, s.worst_what.c_str());
     json += std::string(i ? ", " : "") + "{\"solver\": " + ::bench::json_string(s.name) +
             ", \"solves\": " + std::to_string(s.solves) + ", \"budget_exhausted\": " + std::to_string(s.exhausted) +
             ", \"over_bound\": " + std::to_string(s.over) +
+            ", \"exhausted_before_first_iteration\": " + std::to_string(s.unmoved) +
             ", \"worst_cpu_over_budget\": " + ::bench::json_number(s.worst_ratio, "%.4f") +
             ", \"worst_excess_us\": " + ::bench::json_number(s.worst_excess, "%.2f") +
             ", \"worst_case\": " + std::to_string(s.worst_case) + ", \"worst_case_what\": " +
@@ -590,16 +595,19 @@ int main(int argc, char** argv) {
     char label[32];
     if (b + 1 < kBuckets) std::snprintf(label, sizeof label, "%d-%d", lo, bucket_top[b]);
     else std::snprintf(label, sizeof label, "%d+", lo);
-    std::printf("%s%s: %ld of %ld", b ? ", " : "", label, bucket_over[b], bucket_solves[b]);
+    std::printf("%s%s: %ld of %ld (%ld stopped before the first iteration)", b ? ", " : "", label, bucket_over[b],
+                bucket_solves[b], bucket_unmoved[b]);
     json += std::string(b ? ", " : "") + "{\"dofs\": " + ::bench::json_string(label) +
-            ", \"solves\": " + std::to_string(bucket_solves[b]) + ", \"over_bound\": " + std::to_string(bucket_over[b]) + "}";
+            ", \"solves\": " + std::to_string(bucket_solves[b]) + ", \"over_bound\": " + std::to_string(bucket_over[b]) +
+            ", \"exhausted_before_first_iteration\": " + std::to_string(bucket_unmoved[b]) + "}";
   }
   json += "], \"humanoid_trees\": {\"solves\": " + std::to_string(humanoid_solves) +
           ", \"over_bound\": " + std::to_string(humanoid_over) + "}}\n";
   std::printf("; humanoid trees: %ld of %ld\n", humanoid_over, humanoid_solves);
   const std::string path = out_dir + "/budget.json";
   if (::bench::write_file(path, json)) std::printf("JSON: %s\n", path.c_str());
-  std::printf("budget: %ld of %ld solves over %.2f x budget + %.0f us CPU (least of 3 runs; %ld on their first run)\n",
-              all.over, all.solves, kRatio, kSlackUs, raw_over);
+  std::printf("budget: %ld of %ld solves over %.2f x budget + %.0f us CPU (least of 3 runs; %ld on their first run); "
+              "%ld stopped by the budget before the first iteration\n",
+              all.over, all.solves, kRatio, kSlackUs, raw_over, all.unmoved);
   return 0;
 }

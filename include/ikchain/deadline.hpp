@@ -14,13 +14,21 @@
 // finely (a tree DLS step on 200+ DOF, ~70 us; a BFGS line-search trial on 600 DOF, ~95 us), and the
 // exit work after the last reading (final FK, summary, the best pose put back) is as long as a few
 // FK passes. So every budget reading also measures the time since the reading before (the gap),
-// and the budget counts as spent from the reading after which the longest gap of the solve so far,
-// twice (the next stretch, then the exit work, each at most the longest seen), would end past the
-// bound the issue sets, kBoundRatio x budget + kBoundSlackUs. The first reading has seen only the
-// set-up, which an iteration outgrows: there the next stretch counts as kFirstStretchRatio set-up
-// gaps (and the exit work as one). On a clock whose gaps are short against the slack (the
-// fake-clock tests' ticks of 1 us) this never comes before the budget's own end; `foreseen` says
-// when it did.
+// and the budget counts as spent from the reading after which the next stretch, then the exit work,
+// would end past the bound the issue sets, kBoundRatio x budget + kBoundSlackUs. The exit work counts
+// as the longest gap of the solve so far; the next stretch as that too, but never less than
+// stretch_ratio set-up gaps (the gap from start() to the first budget reading): the set-up (the start
+// pose's FK and measure) is the one stretch every solve has measured at its first reading, and an
+// iteration's longest stretch outgrows it by a ratio that depends on the solver (a DLS step is
+// 2.6 set-ups at the median and 5.5 at the 90th percentile on 100-600 DOF; a FABRIK sweep's stretch
+// 1.4 and 2.5): solve() sets it from one table (stretch_ratio_of in solve.cpp). The trees set
+// none: their first reading takes kFirstStretchRatio, the later ones the longest gap. Without the
+// floor, stretches that grow within a first iteration (DLS's step after its linearisation, CCD's
+// fits toward the root, where more goals lie beyond the joint) ran past the bound on small budgets
+// (docs/benchmarks.md, h21budget: 10-17 of 16-25 solves over it stopped after one iteration; with
+// it 1-2 of 4-8, in runs of 120 s; the fuzzer's ten minutes found nothing). On a clock whose gaps are
+// short against the slack (the fake-clock tests' ticks of 1 us) this never comes before the
+// budget's own end; `foreseen` says when it did.
 #pragma once
 #include <algorithm>
 #include <chrono>
@@ -39,7 +47,8 @@ struct Deadline {
   double now_us() const { return clock_us ? clock_us() : steady_now_us(); }
 
   // Arms the budget and the cap (each 0 = none) from `start_us` (a now_us() reading); clears `hit`.
-  void start(double budget_us, double start_us, double cap_us = 0.0) {
+  // `ratio`: the longest stretch the set-up predicts, in set-up gaps (stretch_ratio; 0: none).
+  void start(double budget_us, double start_us, double cap_us = 0.0, double ratio = 0.0) {
     const bool budget = budget_us > 0.0, cap = cap_us > 0.0;
     active = budget || cap;
     every_call = budget;
@@ -51,6 +60,7 @@ struct Deadline {
     last_reading_us = start_us;
     longest_gap_us = setup_gap_us = 0.0;
     budget_readings = 0;
+    stretch_ratio = ratio;
     bound_end_us = start_us + kBoundRatio * budget_us + kBoundSlackUs;
   }
   // True once the time is spent; then `hit` records that the solve stopped for it.
@@ -62,17 +72,18 @@ struct Deadline {
     const double now = now_us();
     if (now >= end_us) return hit = true;
     if (!every_call) return false;
-    // The budget: the next stretch and the exit work, each as long as the longest gap so far, must
-    // end within the bound (see the top).
+    // The budget: the next stretch and the exit work must end within the bound (see the top).
     const double gap = now - last_reading_us;
     const bool first = ++budget_readings == 1;
     longest_gap_us = std::max(longest_gap_us, gap);
     last_reading_us = now;
     // The first reading has seen only the set-up (the start pose's FK and measure, a solver's first
-    // linearisation): an iteration does more (kFirstStretchRatio of it), the exit work about as much.
-    // (The longest gap is this one's: the dispatcher's look measured a part of it.)
+    // linearisation): the solve's longest stretch is stretch_ratio of it until one longer is seen.
+    // (At the first reading the longest gap is this one's: the dispatcher's look measured a part of it.)
+    // Without a ratio of its own (the trees) the set-up predicts only the first stretch.
     if (first) setup_gap_us = gap;
-    const double ahead = (first ? kFirstStretchRatio + 1.0 : 2.0) * longest_gap_us;
+    const double ratio = stretch_ratio > 0.0 ? stretch_ratio : first ? kFirstStretchRatio : 0.0;
+    const double ahead = std::max(longest_gap_us, ratio * setup_gap_us) + longest_gap_us;
     if (now + ahead + kReserveUs <= bound_end_us) return false;
     foreseen = true;
     return hit = true;
@@ -132,6 +143,8 @@ struct Deadline {
   // The bound on a budget-bound solve's time (issue 16, item 6), and what a stop keeps in reserve
   // beyond the predicted stretches (the clock reading's own cost and rounding).
   static constexpr double kBoundRatio = 1.1, kBoundSlackUs = 20.0, kReserveUs = 1.0;
+  // The set-up's prediction of the first stretch, in set-up gaps, where solve() gives no ratio (the
+  // trees' first reading; the dispatcher's look before the solver's set-up).
   static constexpr double kFirstStretchRatio = 3.0;
 
   bool active = false;
@@ -146,6 +159,7 @@ struct Deadline {
   double bound_end_us = 0.0;     // start + kBoundRatio x budget + kBoundSlackUs
   double last_reading_us = 0.0, longest_gap_us = 0.0;  // budget readings: the last, the longest gap between two
   double setup_gap_us = 0.0;  // from start() to the first budget reading
+  double stretch_ratio = 0.0;  // the longest stretch predicted, in set-up gaps (start(); 0: none)
   unsigned budget_readings = 0;
 
  private:

@@ -432,6 +432,23 @@ Message validate_inputs(SolverKind kind, const Chain& chain, Span<const Goal> go
   return Message();
 }
 
+// The longest stretch between two budget readings of a solve, in set-up gaps, that the first
+// reading predicts (Deadline::stretch_ratio): about the 90th percentile of the longest stretch over
+// the set-up gap measured on 100-600 DOF (docs/benchmarks.md, h21budget). One table: a solver's
+// first iteration does other work than the set-up (DLS linearises, then steps: its step is the
+// longest stretch; CCD's fits cost more toward the root, where more goals lie beyond the joint).
+double stretch_ratio_of(SolverKind kind) {
+  switch (kind) {
+    case SolverKind::kDLS: return 5.5;
+    case SolverKind::kCCD: return 4.0;
+    case SolverKind::kJacobianPinv: return 3.5;
+    case SolverKind::kBFGS: return 2.5;
+    case SolverKind::kFABRIK: return 2.5;
+    case SolverKind::kTwoBone: break;
+  }
+  return Deadline::kFirstStretchRatio;
+}
+
 SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, const SolverOptions& options,
                   Workspace& ws, Eigen::Ref<Eigen::VectorXd> params) {
   using Clock = std::chrono::steady_clock;
@@ -458,7 +475,7 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
   const double start_us = !timed                  ? 0.0
                           : ws.deadline.clock_us ? ws.deadline.now_us()
                                                  : std::chrono::duration<double, std::micro>(start.time_since_epoch()).count();
-  ws.deadline.start(options.time_budget_usec, start_us, options.time_cap_usec);
+  ws.deadline.start(options.time_budget_usec, start_us, options.time_cap_usec, stretch_ratio_of(kind));
   double* p = params.data();
 
   // The start pose: the current one (warm start) or the rest pose, made feasible. It is measured

@@ -569,6 +569,89 @@ TEST(Issue16, DeadlineFoundSpentBeforeTheSolverRecordsThatReading) {
   EXPECT_EQ(d.last_reading_us, 12.0);
 }
 
+// Item 6, the first iteration's stretches (h21budget): the set-up gap predicts the solve's longest
+// stretch as Deadline::stretch_ratio set-up gaps, the solver's own ratio (a DLS step is ~5.5 set-ups
+// on 100-600 DOF, a FABRIK sweep's stretch ~2.5), and that floor holds at every reading until a
+// longer gap is seen. Before, the second reading predicted two gaps of the linearisation only, and
+// DLS's step after it ran past the bound on 20-30 us budgets on long chains (budget_bench).
+TEST(Issue16, DeadlineSetUpPredictsTheLongestStretchUntilOneIsSeen) {
+  Deadline d;
+  d.clock_us = &set_clock;
+  // Budget 100 us: spent at 100, the bound at 130. A 10 us set-up predicts 55 us stretches.
+  d.start(100.0, 0.0, 0.0, 5.5);
+  g_set_now = 10.0;
+  EXPECT_FALSE(d.spent());  // 10 + 55 + 10 + 1 <= 130
+  for (double t = 22.0; t <= 58.0; t += 12.0) {
+    g_set_now = t;
+    EXPECT_FALSE(d.spent()) << t;  // t + 55 + 12 + 1 <= 130
+  }
+  g_set_now = 70.0;
+  EXPECT_TRUE(d.spent());  // 70 + 55 + 12 + 1 > 130, though 70 + 2 x 12 + 1 is not
+  EXPECT_TRUE(d.foreseen);
+  // Without a ratio (the trees) the first reading predicts kFirstStretchRatio set-ups, the later ones
+  // two longest gaps: the same readings go on to the budget's end.
+  d.start(100.0, 0.0);
+  for (double t = 10.0; t <= 94.0; t += 12.0) {
+    g_set_now = t;
+    EXPECT_FALSE(d.spent()) << t;  // 94 + 2 x 12 + 1 <= 130
+  }
+  g_set_now = 106.0;
+  EXPECT_TRUE(d.spent());
+  EXPECT_FALSE(d.foreseen);  // the budget's own end
+  // A gap longer than the prediction takes over: 40 us after a 10 us set-up at 5.5 x.
+  d.start(1000.0, 0.0, 0.0, 5.5);
+  g_set_now = 10.0;
+  EXPECT_FALSE(d.spent());
+  g_set_now = 80.0;
+  EXPECT_FALSE(d.spent());
+  EXPECT_EQ(d.longest_gap_us, 70.0);
+}
+
+// The same through solve(), on a 200-joint chain with a clock of 10 us per reading. DLS measures its
+// start itself: its first reading is one tick after the start, a 10 us set-up, and its step is
+// predicted at 55 us: on a 40 us budget (bound 64 us) 10 + 55 + 10 + 1 ends past it, so DLS stops
+// at its first reading, before it moves (at the old 3 set-ups it went on); on 60 us (bound 86 us) it
+// goes on. FABRIK's set-up spans the dispatcher's look, 20 us, and its stretch is predicted at
+// 2.5 set-ups: on 70 us (bound 97 us) 20 + 50 + 20 + 1 fits, and it sweeps (at 3 it stopped there).
+double g_tick_now = 0.0;
+double tick_clock() { return g_tick_now += 10.0; }
+TEST(Issue16, TimeBudgetFirstReadingStopsWhenTheSolversFirstStretchEndsPastTheBound) {
+  std::mt19937 rng(21);
+  const Chain c = test::make_ball_chain(200, 0.01);
+  const std::vector<Goal> goals = {Goal::position(test::tip_of(c, test::random_params(c, rng, 1.0)))};
+  Workspace ws(c, 1);
+  ws.deadline.clock_us = &tick_clock;
+  SolverOptions o = test::cold_start_options(c);
+  o.position_tolerance = 1e-300;
+  o.stall_tolerance = 0.0;
+  o.max_iterations = 1000;
+  struct Case {
+    SolverKind kind;
+    double budget;
+    bool stops_first;
+  };
+  for (const Case& k : {Case{SolverKind::kDLS, 40.0, true}, Case{SolverKind::kFABRIK, 70.0, false},
+                        Case{SolverKind::kDLS, 60.0, false}}) {
+    o.time_budget_usec = k.budget;
+    g_tick_now = 0.0;
+    Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+    const SolveResult r = test::run(k.kind, c, goals, o, ws, p);
+    const std::string what = std::string(to_string(k.kind)) + ", budget " + std::to_string(k.budget);
+    EXPECT_TRUE(r.budget_exhausted) << what;
+    EXPECT_EQ(ws.deadline.setup_gap_us, k.kind == SolverKind::kDLS ? 10.0 : 20.0) << what;
+    if (k.stops_first) {
+      EXPECT_EQ(ws.deadline.budget_readings, 1u) << what;
+      EXPECT_TRUE(ws.deadline.foreseen) << what;
+      EXPECT_EQ(r.iterations, 0) << what;
+      EXPECT_EQ(r.final_error, r.initial_error) << what;
+    } else {
+      EXPECT_GT(ws.deadline.budget_readings, 1u) << what;
+      EXPECT_GT(r.iterations, 0) << what;
+    }
+    EXPECT_LE(ws.deadline.last_reading_us, ws.deadline.bound_end_us) << what;
+  }
+}
+
 // Item 6, the exit work of a solve the budget stops before it moves: on long chains with a small
 // budget the set-up alone (the start pose's FK and measure, a solver's first evaluation) can use the
 // budget, and the exit work then decides whether the solve ends within 1.1 x budget + 20 us

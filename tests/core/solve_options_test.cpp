@@ -70,14 +70,15 @@ TEST(TimeBudget, NeverOverrunsByMoreThanOneIteration) {
       if (r.budget_exhausted) {
         ++exhausted;
         // At the budget's end, or before it when the next stretch and the exit work, predicted from
-        // the gaps between readings, would have ended past 1.1 x budget + 20 us (Deadline::foreseen;
-        // at the first reading, kFirstStretchRatio + 1 set-up gaps: 25 us with 10 us gaps stops there;
-        // so at the dispatcher's reading after its set-up, before the solver's first, which
-        // budget_readings does not count: Deadline::spent_before_solver; the solver's first gap then
-        // spans both, two ticks).
-        if (ws.deadline.foreseen)
-          EXPECT_GT(spent + (ws.deadline.budget_readings <= 1 ? Deadline::kFirstStretchRatio + 1.0 : 2.0) *
-                                ws.deadline.longest_gap_us,
+        // the gaps between readings, would have ended past 1.1 x budget + 20 us (Deadline::foreseen:
+        // the longest gap, or stretch_ratio set-up gaps if longer, then the longest gap; so at the
+        // dispatcher's reading after its set-up, before the solver's first, which budget_readings
+        // does not count, kFirstStretchRatio + 1 gaps: Deadline::spent_before_solver).
+        const Deadline& d = ws.deadline;
+        if (d.foreseen)
+          EXPECT_GT(spent + (d.budget_readings == 0 ? (Deadline::kFirstStretchRatio + 1.0) * d.longest_gap_us
+                                                    : std::max(d.longest_gap_us, d.stretch_ratio * d.setup_gap_us) +
+                                                          d.longest_gap_us),
                     1.1 * budget + 20.0 - Deadline::kReserveUs) << to_string(kind);
         else
           EXPECT_GE(spent, budget) << to_string(kind);
