@@ -345,13 +345,13 @@ TreeSolverStatus TreeBfgs::run() {
     const uint64_t signature = frozen_signature();
     if (signature != active_set_) fresh_ = true;
     active_set_ = signature;
-    bool gauss_newton = fresh_;
-    if (!gauss_newton) {
+    if (!fresh_) {
       if (!quasi_newton_direction()) break;  // the time budget: kMaxIterations
-      if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = gauss_newton = true;
+      if (!(ws_.gradient.dot(ws_.step) < -1e-12 * gnorm * ws_.step.norm())) fresh_ = true;
     }
+    const bool was_fresh = fresh_;  // accept() clears fresh_ with H's first update
     const double f_before = f_;
-    if (gauss_newton && !gauss_newton_direction()) break;  // the time budget: kMaxIterations
+    if (fresh_ && !gauss_newton_direction()) break;  // the time budget: kMaxIterations
     dphi0_ = ws_.gradient.dot(ws_.step);
     const double rot = max_rotation(ws_.step);
     if (!(dphi0_ < 0.0) || !(rot > 0.0)) {
@@ -363,7 +363,7 @@ TreeSolverStatus TreeBfgs::run() {
     const double alpha_init = std::min({1.0, kFirstTrialRotation / rot, alpha_max});
     bfgs::WolfeSearch<TreeBfgs, TreeErrors> search(*this, o_, ws_.deadline, f_, dphi0_);
     if (!search.run(alpha_init, alpha_max)) {
-      if (!gauss_newton) {
+      if (!fresh_) {
         fresh_ = true;
         continue;
       }
@@ -383,7 +383,7 @@ TreeSolverStatus TreeBfgs::run() {
     // yet (tens of DOFs, goals weighted 1e3 apart: from the warm start of a tracked frame, plain
     // BFGS crept for 60-100 iterations at 1e-5 m); the next cycle starts again from a Gauss-Newton
     // step, which near a solution converges in one or two.
-    if (!gauss_newton && !(f_ <= kSlowStep * f_before)) fresh_ = true;
+    if (!was_fresh && !(f_ <= kSlowStep * f_before)) fresh_ = true;
   }
   status.iterations = it;
   status.escapes = escapes_;

@@ -23,7 +23,8 @@
 // sweeps a frame (TreeCcd.BendsStraightLegsInFewIterations; now 1.0). The body bench's trees have
 // no hinges: its ccd rows do not change.
 // A floating root also translates, after its rotation: by the weighted mean of the position goals'
-// remaining offsets (the translation that best serves them all).
+// remaining offsets (the translation that best serves them all; a wrist centre's for a partnered
+// position goal, as every joint above the ball serves it).
 // Prismatic joints are not taken (the solver table). The posture is ignored (no null space).
 // Termination and stuck poses: tree_common::Progress (the stall rule, escapes, the best pose).
 #include <cmath>
@@ -75,9 +76,17 @@ struct WristCentres {
     return partner[g] >= 0 && problem.goals[g].goal.kind == GoalKind::kOrientation &&
            tree.effector(problem.goals[g].goal.effector).joint != j;
   }
-  bool centred(const Tree& tree, const TreeProblem& problem, int g, int j) const {
-    return partner[g] >= 0 && problem.goals[g].goal.kind == GoalKind::kPosition &&
-           tree.effector(problem.goals[g].goal.effector).joint != j;
+  // Goal g's point seen from joint j: a partnered position goal above its ball is its wrist
+  // centre's (current: from the tracked pose; target: the centre's target), any other goal its
+  // effector's (`current`, `target` as given). True when it is the centre's.
+  bool centre_pair(const Tree& tree, const TreeProblem& problem, const geometric::Tracked& tracked, int g, int j,
+                   glm::dvec3& current, glm::dvec3& target) const {
+    if (partner[g] < 0 || problem.goals[g].goal.kind != GoalKind::kPosition ||
+        tree.effector(problem.goals[g].goal.effector).joint == j)
+      return false;
+    current = centre(tree, tracked.effector, tracked.position, tracked.orientation);
+    target = this->target[g];
+    return true;
   }
 };
 
@@ -101,12 +110,8 @@ bool triangle_turn(const Tree& tree, const TreeProblem& problem, const WristCent
     only = g;
   }
   if (only < 0) return false;
-  const Goal& goal = problem.goals[only].goal;
-  const bool centred = wrists.centred(tree, problem, only, j);
-  const glm::dvec3 current = centred ? WristCentres::centre(tree, goal.effector, tracked[only].position,
-                                                             tracked[only].orientation)
-                                     : tracked[only].position;
-  const glm::dvec3 target = centred ? wrists.target[only] : goal.target_position;
+  glm::dvec3 current = tracked[only].position, target = problem.goals[only].goal.target_position;
+  wrists.centre_pair(tree, problem, tracked[only], only, j, current, target);
   return geometric::triangle_turn(ws.joint_origins[parent], ws.joint_origins[j], axis, current, target, tree.limits(j), q0,
                                   turn);
 }
@@ -135,9 +140,9 @@ double sweep(const Tree& tree, const TreeProblem& problem, const WristCentres& w
         if (!tree.supports(tg.goal.effector, j) || wrists.left_to_the_ball(tree, problem, g, j)) continue;
         any = true;
         const double lw = tree_common::level_weight(tg.level);
-        if (wrists.centred(tree, problem, g, j)) {
-          const glm::dvec3 centre = WristCentres::centre(tree, tg.goal.effector, tracked[g].position, tracked[g].orientation);
-          add(centre - origin, wrists.target[g] - origin, lw * tg.goal.weight);
+        glm::dvec3 centre, centre_target;
+        if (wrists.centre_pair(tree, problem, tracked[g], g, j, centre, centre_target)) {
+          add(centre - origin, centre_target - origin, lw * tg.goal.weight);
           continue;
         }
         geometric::goal_pairs(tg.goal, tracked[g], origin,
@@ -169,7 +174,9 @@ double sweep(const Tree& tree, const TreeProblem& problem, const WristCentres& w
         const TreeGoal& tg = problem.goals[g];
         if (tg.goal.kind != GoalKind::kPosition) continue;
         const double w = tree_common::level_weight(tg.level) * tg.goal.weight;
-        sum += w * (tg.goal.target_position - (origin + applied * (tracked[g].position - origin)));
+        glm::dvec3 current = tracked[g].position, target = tg.goal.target_position;
+        wrists.centre_pair(tree, problem, tracked[g], g, j, current, target);
+        sum += w * (target - (origin + applied * (current - origin)));
         weight += w;
       }
       if (weight > 0.0) shift = sum / weight;
