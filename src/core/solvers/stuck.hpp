@@ -249,6 +249,15 @@ class StallRule {
     if (cost < best_) best_ = cost;
     return small_ >= kStallIterations;
   }
+  // The same rule for a solver whose cost is not one number (the tree DLS's levels, compared
+  // lexicographically): it measures each accepted step's relative gain itself. True when
+  // kStallIterations steps in a row gained less than `tolerance`; a gain below kCreepGain counts
+  // toward creeping(). NaN counts as a gain.
+  bool stalled_after_gain(double gain, double tolerance) {
+    small_ = gain < tolerance ? small_ + 1 : 0;
+    slow_ = gain < kCreepGain ? slow_ + 1 : 0;
+    return small_ >= kStallIterations;
+  }
   // True when the last kStallIterations iterations each lowered the best cost by less than
   // kCreepGain of it: a creep, still progress, so the solver escapes when Escapes::creep_is_stuck()
   // and it can, and otherwise goes on.

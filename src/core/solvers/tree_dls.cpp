@@ -81,9 +81,7 @@ constexpr double kMinPivot2 = 1e-200;
 // the higher levels at the end.
 constexpr double kRelaxedTolerances = 100.0;
 // The chain solvers' stall and creep rules (stuck.hpp): one notion of "stuck".
-using stuck::kCreepGain;
 using stuck::kMaxEscapes;
-using stuck::kStallIterations;
 
 struct Levels {
   int count = 0;                                   // levels with goals
@@ -849,7 +847,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   // relaxed band; once there are posture_iterations of them, the steps serve the goals alone.
   const bool posture_capped = !problem.posture.empty() && problem.posture_iterations > 0;
   int posture_steps = 0;
-  int slow_steps = 0, creep_steps = 0;
+  stuck::StallRule stall;  // by each accepted step's lexicographic gain (stalled_after_gain)
   // The best pose seen (lexicographically): escapes may leave it, the result returns to it.
   std::copy(params, params + n, ws.params_best.data());
   TreeErrors best = current;
@@ -877,7 +875,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     mu = initial_mu;
     nu = 2.0;
     posture_gain = 1.0;
-    slow_steps = creep_steps = 0;
+    stall.reset(INFINITY);
     return true;
   };
   auto tighten = [&]() {
@@ -885,7 +883,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     met_cost = &strict;
     mu = initial_mu;
     nu = 2.0;
-    slow_steps = creep_steps = 0;
+    stall.reset(INFINITY);
     return true;
   };
   bool chord = false;  // the next step is a chord step (model.chord())
@@ -991,15 +989,14 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         status.reason = TerminationReason::kConverged;
         break;
       }
-      slow_steps = stall_gain < o.stall_tolerance ? slow_steps + 1 : 0;
-      creep_steps = stall_gain < kCreepGain ? creep_steps + 1 : 0;
+      const bool stalled = stall.stalled_after_gain(stall_gain, o.stall_tolerance);
       const bool goals_left = !current.all_met();
-      if (slow_steps >= kStallIterations) {
+      if (stalled) {
         if (goals_left && (tighten() || escape_stuck())) continue;
         status.reason = goals_left ? TerminationReason::kStalled : TerminationReason::kConverged;
         break;
       }
-      if (goals_left && creep_steps >= kStallIterations &&
+      if (goals_left && stall.creeping() &&
           (tighten() || (any_pinned(tree, ws, model.columns(), params) && escape_stuck())))
         continue;
       if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
