@@ -781,8 +781,8 @@ func test_tracking_moving_hands_without_pops() -> void:
 # and the hands punching in turn (out 50 cm and back in 16 frames, up to 9.8 cm a frame) for 128
 # frames, continuing from the last solution. The torso leans into a punch the arm cannot reach
 # alone, but must not lag behind and then swing: the head moves at most a punch's own speed a
-# frame. Measured: 7.3 cm at most; at the default stiffness (0.1) 11.5 cm, the failure the
-# replayed CMU boxer shows (the head 5-7 cm a frame more than the recording on 0.49 % of frames).
+# frame. Measured: 6.95 cm at most (7.3 cm while setup_humanoid() gave the elbows a posture; the
+# torso at the default 0.1 then moved the head 11.5 cm, now 4.5 cm: the next test).
 func test_posture_stiffness_holds_the_torso_of_a_punching_body() -> void:
 	var skel := Body.humanoid()
 	case_root.add_child(skel)
