@@ -431,6 +431,38 @@ TEST(Issue16, TimeBudgetWorkPerClockReadingIsBoundedOnLongChains) {
   std::printf("longest stretch / bound: %.3f (%s)\n", worst_ratio, worst.c_str());
 }
 
+// Item 6, an escape on a short chain with several goals: 12 balls (36 DOF) with four position goals
+// (12 rows). The escape's null-space projection diagonalises J J^T, 12 x 12: ~10k flops a sweep,
+// eight sweeps, more than the stretch bound of the whole problem (65k flops). Its sweeps read the
+// clock now, as the Jacobian solvers' own do; before, the whole decomposition was one stretch
+// (budget_bench --seed 1 --case 195597: FABRIK 88 us CPU on a 39.8 us budget, a 55 us gap; now 45 us).
+TEST(Issue16, TimeBudgetReadsTheClockInAnEscapesEigenDecomposition) {
+  const Chain c = test::make_ball_chain(12, 0.1);
+  std::mt19937 rng(195597);
+  std::vector<Goal> goals;
+  Workspace ws(c, 4);
+  forward_kinematics(c, test::random_params(c, rng, 1.0).data(), ws);
+  for (int g = 0; g < 4; ++g) {
+    const int e = (g + 1) * c.joint_count() / 4;
+    goals.push_back(Goal::position(effector_position(c, ws, e), e));  // of one pose: reachable
+  }
+  const double bound = Deadline::stretch_bound(c.joint_count(), c.dof_count(), 12);
+  ws.deadline.clock_us = &fake_clock;
+  SolverOptions o = test::cold_start_options(c);
+  o.position_tolerance = 1e-300;  // never met: the solve stalls at rounding and escapes
+  o.stall_tolerance = 0.5;  // CCD and FABRIK creep: an iteration gaining less than half is stuck
+  o.max_iterations = 200;
+  o.time_budget_usec = 1e9;  // read at every check, never spent
+  for (SolverKind kind : kIterative) {
+    g_fake_now = 0.0;
+    Eigen::VectorXd p = Eigen::VectorXd::Zero(c.dof_count());
+    const SolveResult r = test::run(kind, c, goals, o, ws, p);
+    EXPECT_GT(r.escapes, 0) << to_string(kind) << " " << to_string(r.reason) << " it " << r.iterations << " err " << r.final_error;
+    EXPECT_LE(ws.deadline.longest_stretch, bound) << to_string(kind) << ": " << ws.deadline.longest_stretch
+                                                  << " flops between two clock readings";
+  }
+}
+
 // Item 6, the Gram product of a long chain: on 200 ball joints (600 DOF) with five goals, J J^T
 // alone is 135k flops (~50 us), and the active set forms it again per freeze pass. GoalModel forms
 // it one goal's three rows at a time with a clock reading between; a budget found spent there (or

@@ -363,9 +363,10 @@ class Escapes {
     // more than kGentleStep), so a straight knee on its limit with the target now a little closer
     // folds out of it and the solve goes on from nearby, continuous frame to frame. The full
     // escapes below follow when it is stuck again, or farther from its goals.
-    if (used_ == 1 && std::sqrt(2.0 * best_cost_) <= kGentleError * chain_.total_length() &&
-        gentle(active, before, step, params))
-      return true;
+    if (used_ == 1 && std::sqrt(2.0 * best_cost_) <= kGentleError * chain_.total_length()) {
+      if (gentle(active, before, step, params)) return true;
+      if (ran_out(before, params)) return false;  // the gentle projections' sweeps read the clock
+    }
     ++full_;
     // A query fallen back kFruitlessBeforeFar times in a row: far from this basin (far()).
     if (cold_query() && fruitless_ >= kFruitlessBeforeFar) {
@@ -395,6 +396,7 @@ class Escapes {
       linearize(params);
       project_within_limits(active, params, step, [&](double* v) { kick_direction(active, params, v); });
     }
+    if (ran_out(before, params)) return false;  // the projections' sweeps read the clock
     const double size = largest(active, step);
     if (size > 1e-9) {
       scale(active, kKickAmplitude / size, step);
@@ -614,9 +616,9 @@ class Escapes {
       auto A = ws_.goal_square.topLeftCorner(m, m);
       auto V = ws_.dof_square.topLeftCorner(m, m);
       A.noalias() = J * J.transpose();
+      ws_.deadline.charge(static_cast<double>(m) * m * active + 2.0 * m * active);
       const double floor = truncation_floor(A.trace());
-      const int sweeps = linalg::jacobi_eigen(A, V, m);
-      ws_.deadline.charge(static_cast<double>(m) * m * active + 6.0 * m * m * m * sweeps + 2.0 * m * active);
+      if (linalg::jacobi_eigen(A, V, m, &ws_.deadline) < 0) return stopped(active, v);
       auto y = ws_.goal_vec.head(m);
       auto t = ws_.dof_vec_a.head(m);
       y.noalias() = J * zv;
@@ -628,15 +630,20 @@ class Escapes {
       auto A = ws_.dof_square.topLeftCorner(active, active);
       auto W = ws_.goal_square.topLeftCorner(active, active);
       A.noalias() = J.transpose() * J;
+      ws_.deadline.charge(static_cast<double>(active) * active * m);
       const double floor = truncation_floor(A.trace());
-      const int sweeps = linalg::jacobi_eigen(A, W, active);
-      ws_.deadline.charge(static_cast<double>(active) * active * m + 6.0 * active * active * active * sweeps);
+      if (linalg::jacobi_eigen(A, W, active, &ws_.deadline) < 0) return stopped(active, v);
       auto t = ws_.dof_vec_a.head(active);
       t.noalias() = W.transpose() * zv;
       for (int i = 0; i < active; ++i) t[i] = A(i, i) > floor ? t[i] : 0.0;
       zv.noalias() -= W * t;
     }
   }
+
+  // The time budget stopped the eigen-decomposition (its sweeps read the clock: on 12 x 12 and
+  // up one costs tens of microseconds, more than the stretch the budget foresaw): no direction,
+  // and the escape's next ran_out() returns the pose it started from.
+  static void stopped(int active, double* v) { std::fill(v, v + active, 0.0); }
 
   double truncation_floor(double trace) const {
     return jacobian::gram_rank_floor(
