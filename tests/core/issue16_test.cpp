@@ -463,6 +463,40 @@ TEST(Issue16, TimeBudgetReadsTheClockInAnEscapesEigenDecomposition) {
   }
 }
 
+// Item 6, within one Jacobi sweep: seven goals make J J^T 21 x 21, a sweep ~55k flops (15-25 us),
+// more than the budget's slack. The sweep reads the clock every 10000.0 flops
+// (before: once per sweep; budget_bench --seed 1 --case 16222, the pseudo-inverse on 15 balls with
+// seven goals and a 22.4 us budget, 48 us CPU; now 27 us): no stretch is longer than that plus one
+// row's rotations, and a budget spent mid-sweep stops it there.
+TEST(Issue16, TimeBudgetReadsTheClockWithinAJacobiSweep) {
+  const int k = 21;
+  std::mt19937 rng(16222);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::MatrixXd B(k, k);
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j < k; ++j) B(i, j) = u(rng);
+  const Eigen::MatrixXd A = B * B.transpose();
+  Deadline d;
+  d.clock_us = &fake_clock;
+  for (double budget : {1e9, 4.5}) {
+    g_fake_now = 0.0;
+    d.start(budget, d.now_us());  // armed at 1
+    Eigen::MatrixXd D = A, V(k, k);
+    const int sweeps = linalg::jacobi_eigen(D, V, k, &d);
+    d.finish();
+    EXPECT_LE(d.longest_stretch, linalg::kJacobiFlopsPerCheck + 12.0 * k * k) << budget;
+    if (budget > 1e6) {
+      EXPECT_GT(sweeps, 3);  // it ran to the end, reading the clock as it went
+      EXPECT_GT(g_fake_now, 1.0 + 4 * sweeps);
+      EXPECT_LE((V * D.diagonal().asDiagonal() * V.transpose() - A).norm(), 1e-12 * A.norm());
+    } else {
+      EXPECT_EQ(sweeps, -1);
+      EXPECT_TRUE(d.hit);
+      EXPECT_LE(g_fake_now, 6.0);  // within the first sweep: its start and a few readings after it
+    }
+  }
+}
+
 // Item 6, the Gram product of a long chain: on 200 ball joints (600 DOF) with five goals, J J^T
 // alone is 135k flops (~50 us), and the active set forms it again per freeze pass. GoalModel forms
 // it one goal's three rows at a time with a clock reading between; a budget found spent there (or

@@ -33,12 +33,14 @@ constexpr int kMaxJacobiSweeps = 60;
 // stay at ~eps |A| forever, so a test below rounding (the one this replaced, off^2 <= 1e-34 diag^2)
 // is never met and every call ran all kMaxJacobiSweeps sweeps (issue 16, item 7).
 //
-// `deadline` (optional): checked once per sweep from k >= kJacobiDeadlineSize on (a sweep costs
-// O(k^3): at 18 x 18, six goals, tens of microseconds; below, a whole decomposition costs less than
-// the budget's slack); when it is spent the decomposition stops where it is
+// `deadline` (optional): checked before every sweep from k >= kJacobiDeadlineSize on, and within
+// one every kJacobiFlopsPerCheck flops (a sweep costs O(k^3): at 18 x 18, six goals, tens of
+// microseconds; below, a whole decomposition costs less than the budget's slack); the sweeps'
+// work is charged to it as it goes; when it is spent the decomposition stops where it is
 // (a is then not diagonal: the caller must not step on it).
 // Returns the sweeps run (0 for a matrix already diagonal), or -1 when the deadline stopped it.
 constexpr int kJacobiDeadlineSize = 9;
+constexpr double kJacobiFlopsPerCheck = 10000.0;  // ~5 us: a quarter of the bound's 20 us slack
 template <typename MatA, typename MatV>
 int jacobi_eigen(MatA& a, MatV& v, int k, Deadline* deadline = nullptr) {
   v.setIdentity();
@@ -52,7 +54,7 @@ int jacobi_eigen(MatA& a, MatV& v, int k, Deadline* deadline = nullptr) {
     total += off;
     if (off <= kTol * kTol * total) return sweep;  // also off == 0 (a zero matrix included)
     if (deadline && k >= kJacobiDeadlineSize && deadline->spent()) return -1;
-    if (deadline) deadline->charge(6.0 * k * k * k);  // k^2 / 2 rotations of 3 k-long updates
+    double pending = 0.0;  // flops since the last charge
     for (int p = 0; p < k; ++p) {
       for (int q = p + 1; q < k; ++q) {
         const double apq = a(p, q);
@@ -78,6 +80,16 @@ int jacobi_eigen(MatA& a, MatV& v, int k, Deadline* deadline = nullptr) {
           v(r, p) = c * vrp - s * vrq;
           v(r, q) = s * vrp + c * vrq;
         }
+      }
+      if (!deadline) continue;
+      pending += 12.0 * k * (k - p - 1);  // the row's rotations: 3 k-long updates of 4 flops each
+      // Within a sweep too, once the work since the last reading is kJacobiFlopsPerCheck: a sweep
+      // of 21 x 21 (seven goals) is ~55k flops, 15-25 us, where the budget's slack is 20 us. A
+      // stop mid-sweep leaves `a` similar to the input, not diagonal (see above).
+      if (pending >= kJacobiFlopsPerCheck || p + 1 == k) {
+        deadline->charge(pending);
+        pending = 0.0;
+        if (k >= kJacobiDeadlineSize && p + 1 < k && deadline->spent()) return -1;
       }
     }
   }
