@@ -313,8 +313,18 @@ class Escapes {
   // wraps a hinge the bound holds), and with restarts their own wrap is the move. The time budget
   // spent, nothing moves: the solver's re-evaluation there would overrun it.
   bool cross_full_turn_bounds(double* params) {
-    bool moved = false;
+    if (full_turn_ < 0) {  // once per solve: most chains have no such hinge, and then no loop per step
+      full_turn_ = 0;
+      for (int i = 0; i < chain_.joint_count(); ++i) {
+        const JointLimits& l = chain_.limits(i);
+        if (chain_.joint_type(i) == JointType::kHinge && l.has_hinge_limit &&
+            (l.hinge_max - l.hinge_min) * (1.0 + kOnBoundFraction) >= 2.0 * so3::kPi)  // wrap_across_bound's test
+          full_turn_ = 1;
+      }
+    }
+    if (full_turn_ == 0) return false;
     const int active = jacobian::active_dof_count(chain_, goals_);
+    bool moved = false;
     for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
       const int o = chain_.dof_offset(i);
       const double before = params[o];
@@ -468,6 +478,7 @@ class Escapes {
     return false;
   }
   int full_ = 0;  // full escapes made (after the gentle one)
+  int full_turn_ = -1;  // an active hinge's range spans a full turn: 1, 0, or -1 = not worked out yet
   int fruitless_ = 0;  // escapes in a row after which the solve found nothing kEscapeGain lower
   int far_ = 0;  // far escapes made
   double start_error_ = 0.0;  // sqrt(2 cost) of the start pose (start_at)
