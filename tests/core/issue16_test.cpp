@@ -1254,7 +1254,9 @@ TEST(Issue16, Ur5FullPoseGoalsWithoutRestarts) {
 TEST(Issue16, Ur10FullPoseGoalsWithoutRestarts) {
   const Chain c = ur10();
   ASSERT_EQ(c.dof_count(), 6);
-  expect_full_poses_reached(c, {{SolverKind::kJacobianPinv, 25}, {SolverKind::kDLS, 30}, {SolverKind::kBFGS, 25}});
+  // DLS 0: a query's descent crosses the +-pi bounds (stuck::Escapes::cross_full_turn_bounds; 23 failed
+  // before, 0 now, on glibc and under wine alike).
+  expect_full_poses_reached(c, {{SolverKind::kJacobianPinv, 25}, {SolverKind::kDLS, 0}, {SolverKind::kBFGS, 25}});
 }
 
 }  // namespace
