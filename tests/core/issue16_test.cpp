@@ -1254,8 +1254,8 @@ TEST(Issue16, Ur5FullPoseGoalsWithoutRestarts) {
 TEST(Issue16, Ur10FullPoseGoalsWithoutRestarts) {
   const Chain c = ur10();
   ASSERT_EQ(c.dof_count(), 6);
-  // DLS 0: a query's descent crosses the +-pi bounds (stuck::Escapes::cross_full_turn_bounds; 23 failed
-  // before, 0 now, on glibc and under wine alike).
+  // DLS 0: a query's descent crosses the +-pi bounds (stuck::Escapes::cross_full_turn_bounds); before
+  // that 23 goals failed.
   expect_full_poses_reached(c, {{SolverKind::kJacobianPinv, 25}, {SolverKind::kDLS, 0}, {SolverKind::kBFGS, 25}});
 }
 
