@@ -1320,7 +1320,9 @@ TEST(Issue16, Ur5FullPoseGoalsWithoutRestarts) {
 TEST(Issue16, Ur10FullPoseGoalsWithoutRestarts) {
   const Chain c = ur10();
   ASSERT_EQ(c.dof_count(), 6);
-  expect_full_poses_reached(c, {{SolverKind::kJacobianPinv, 25}, {SolverKind::kDLS, 30}, {SolverKind::kBFGS, 25}});
+  // DLS 0: a query's descent crosses the +-pi bounds (stuck::Escapes::cross_full_turn_bounds); before
+  // that 23 goals failed.
+  expect_full_poses_reached(c, {{SolverKind::kJacobianPinv, 25}, {SolverKind::kDLS, 0}, {SolverKind::kBFGS, 25}});
 }
 
 }  // namespace

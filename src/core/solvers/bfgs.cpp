@@ -418,7 +418,7 @@ SolverStatus Bfgs::run() {
     accept(true);
     // The stall rule, a creep the limits hold (no escape left: stalled) or a long one, as DLS's.
     const stuck::Verdict verdict = loop_.after_accepted(err_.cost, stuck::Creeps::kStuckOrLong);
-    if (verdict == stuck::Verdict::kEscaped) continue;
+    if (verdict == stuck::Verdict::kMoved) continue;
     if (verdict == stuck::Verdict::kStalled) break;
   }
   status.iterations = it;

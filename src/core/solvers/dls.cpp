@@ -81,7 +81,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
   const double initial_mu = std::clamp(o.dls_initial_damping, o.dls_min_damping, o.dls_max_damping);
   double mu = initial_mu;
   double nu = 2.0;
-  // After an escape the damping starts again.
+  // After an escape (or a query's crossing of a full-turn bound: stuck::Loop) the damping starts again.
   stuck::JacobianLoop loop(chain, goals, o, ws, model, params, [&]() {
     mu = initial_mu;
     nu = 2.0;
@@ -141,7 +141,7 @@ SolverStatus run_dls(const Chain& chain, Span<const Goal> goals, const SolverOpt
       // A creep the limits hold, or a long one, escapes (DLS's steps do not follow the Newton
       // flow into singular saddles as the pseudo-inverse's do).
       const Verdict verdict = loop.after_accepted(trial_cost, stuck::Creeps::kStuckOrLong);
-      if (verdict == Verdict::kEscaped) continue;
+      if (verdict == Verdict::kMoved) continue;
       if (verdict == Verdict::kStalled) {
         status.reason = TerminationReason::kStalled;
         break;

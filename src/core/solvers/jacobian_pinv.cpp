@@ -91,7 +91,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
   }
   model.linearize(params);
   double fraction = 1.0;  // the last accepted de / e
-  // After an escape the full step is tried first again.
+  // After an escape (or a query's crossing of a full-turn bound) the full step is tried first again.
   stuck::JacobianLoop loop(chain, goals, o, ws, model, params, [&]() { fraction = 1.0; });
   using stuck::Verdict;
   // Clamped, the target is the best reach of a goal beyond it: being stuck there is no trap.
@@ -193,7 +193,7 @@ SolverStatus run_pinv(const Chain& chain, Span<const Goal> goals, const SolverOp
     }
     // Every creep escapes (the file comment's singular saddles).
     const Verdict verdict = loop.after_accepted(model.cost(), stuck::Creeps::kEvery);
-    if (verdict == Verdict::kEscaped) continue;
+    if (verdict == Verdict::kMoved) continue;
     if (verdict == Verdict::kStalled) {
       status.reason = TerminationReason::kStalled;
       break;

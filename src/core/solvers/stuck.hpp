@@ -17,6 +17,9 @@
 // When joints rest on their bounds (first and third escape), the move first takes them off (across
 // a full-turn range to the same angle at its other end, else into the range; see unpin()): a
 // minimum the bounds hold is a constrained one that no null-space move leaves.
+// In a query, a hinge that an accepted step left on a full-turn bound crosses it at once (Loop::
+// after_accepted, Escapes::cross_full_turn_bounds): the same pose, the wall behind it. Left there,
+// the descent crawled along the wall, 1-4 % a step, into minima the bound held (issue 16, item 20).
 // When kFruitlessBeforeFar escapes in a row led back into the minimum they left, the next one of a
 // query (cold_query(): started far from its goals, no restart follows) is far (far()): a
 // deterministic pose spread over the limits, a restart's move inside the solve (issue 16, item 20:
@@ -210,7 +213,8 @@ constexpr double kOnBoundFraction = 1e-6;
 // to that value and returns true: the same pose, so the same effectors, but on the other side of the
 // wall. A hinge whose range spans a full turn (UR arms: +-pi) stops on a bound when its solution
 // lies just beyond it, i.e. just inside the opposite end; from the wrapped value the same gradient
-// leads into it. The escapes' off-the-bounds move and the restarts (solve.cpp) both use it.
+// leads into it. The escapes' off-the-bounds move, a query's descent (Escapes::
+// cross_full_turn_bounds) and the restarts (solve.cpp) use it.
 inline bool wrap_across_bound(const Chain& chain, int joint, double* params) {
   if (chain.joint_type(joint) != JointType::kHinge || !chain.limits(joint).has_hinge_limit) return false;
   const JointLimits& l = chain.limits(joint);
@@ -307,6 +311,40 @@ class Escapes {
   // item 20). The solver escapes it while escapes are left and otherwise creeps on.
   bool creep_is_long(const StallRule& stall) const {
     return cold_query() && stall.creep_length() >= kLongCreep;
+  }
+
+  // Moves every active hinge that rests on a bound whose bound +- 2 pi also lies in its range across
+  // to that value (wrap_across_bound): the same pose. True when it moved any. Loop::after_accepted
+  // asks it after every accepted step of a query (cold_query): a descent pressed against such a
+  // bound crawls along it, too fast for a creep, into a minimum the bound holds, where across it
+  // the descent goes on (the UR10's six hinges all span [-pi, pi]: docs/robots-bench.md, issue 16
+  // item 20). Only in a query: a tracking frame keeps its steps (its escapes' off-the-bounds move
+  // wraps a hinge the bound holds), and with restarts their own wrap is the move. The time budget
+  // spent, nothing moves: the solver's re-evaluation there would overrun it.
+  bool cross_full_turn_bounds(double* params) {
+    if (full_turn_ < 0) {  // once per solve: most chains have no such hinge, and then no loop per step
+      full_turn_ = 0;
+      for (int i = 0; i < chain_.joint_count(); ++i) {
+        const JointLimits& l = chain_.limits(i);
+        if (chain_.joint_type(i) == JointType::kHinge && l.has_hinge_limit &&
+            (l.hinge_max - l.hinge_min) * (1.0 + kOnBoundFraction) >= 2.0 * so3::kPi)  // wrap_across_bound's test
+          full_turn_ = 1;
+      }
+    }
+    if (full_turn_ == 0) return false;
+    const int active = jacobian::active_dof_count(chain_, goals_);
+    bool moved = false;
+    for (int i = 0; i < chain_.joint_count() && chain_.dof_offset(i) < active; ++i) {
+      const int o = chain_.dof_offset(i);
+      const double before = params[o];
+      if (!wrap_across_bound(chain_, i, params)) continue;
+      if (!moved && ws_.deadline.spent()) {  // read once, and only when a hinge would cross
+        params[o] = before;
+        return false;
+      }
+      moved = true;
+    }
+    return moved;
   }
 
   // The cost of the pose the solve starts from (cold_query() asks it); not called: 0, a tracking
@@ -451,6 +489,7 @@ class Escapes {
     return false;
   }
   int full_ = 0;  // full escapes made (after the gentle one)
+  int full_turn_ = -1;  // an active hinge's range spans a full turn: 1, 0, or -1 = not worked out yet
   int fruitless_ = 0;  // escapes in a row after which the solve found nothing kEscapeGain lower
   int far_ = 0;  // far escapes made
   double start_error_ = 0.0;  // sqrt(2 cost) of the start pose (start_at)
@@ -665,15 +704,16 @@ class Escapes {
 // the limits hold stops the solve). kStuckOrLong: one the limits hold (Escapes::creep_is_stuck; no
 // escape left: stalled) or a long one (Escapes::creep_is_long; no escape left: it goes on).
 enum class Creeps { kEvery, kStuckOrLong };
-// What an accepted step leads to (Loop::after_accepted).
-enum class Verdict { kGoOn, kEscaped, kStalled };
+// What an accepted step leads to (Loop::after_accepted). kMoved: params moved (an escape, or a
+// query's hinge across a full-turn bound) and the solver's Moved evaluated them there.
+enum class Verdict { kGoOn, kMoved, kStalled };
 
 // Every Newton-like chain solver's loop around the rules above (the pseudo-inverse and DLS through
 // JacobianLoop below, BFGS directly: bfgs.cpp): the stall rule and the escapes over params, the
 // verdict after an accepted step, and the best pose at the end - one mechanism, so the solvers
-// differ only in their steps. `Moved` is called after an escape moved params: it evaluates the
-// solve there (and resets the solver's step state) and returns the cost there. Holds references
-// only: allocates nothing.
+// differ only in their steps. `Moved` is called after an escape (or a query's crossing of a
+// full-turn bound) moved params: it evaluates the solve there (and resets the solver's step state)
+// and returns the cost there. Holds references only: allocates nothing.
 template <class Moved>
 class Loop {
  public:
@@ -696,20 +736,22 @@ class Loop {
     return true;
   }
 
-  // After a step was accepted into params, at `cost`: the stall rule and the creeps (see Creeps).
-  // kEscaped: params moved and Moved evaluated them; kStalled: stuck, no escape left; kGoOn: the
-  // solver goes on from the accepted step.
+  // After a step was accepted into params, at `cost`: in a query, its hinges on full-turn bounds
+  // across them (Escapes::cross_full_turn_bounds); then the stall rule and the creeps (see Creeps).
+  // kMoved: params moved (an escape, or only the crossing) and Moved evaluated them; kStalled:
+  // stuck, no escape left; kGoOn: the solver goes on from the accepted step.
   Verdict after_accepted(double cost, Creeps creeps) {
-    if (stall_.stalled_after(cost, options_.stall_tolerance))
-      return escape(cost) ? Verdict::kEscaped : Verdict::kStalled;
-    if (!stall_.creeping()) return Verdict::kGoOn;  // creep_is_long implies creeping too
-    if (creeps == Creeps::kEvery) {
-      if (escape(cost)) return Verdict::kEscaped;
-      // No escape left: a creep the limits hold would creep on in vain; any other is still progress.
-      return escapes_.creep_is_stuck(params_) ? Verdict::kStalled : Verdict::kGoOn;
-    }
-    if (escapes_.creep_is_stuck(params_)) return escape(cost) ? Verdict::kEscaped : Verdict::kStalled;
-    return escapes_.creep_is_long(stall_) && escape(cost) ? Verdict::kEscaped : Verdict::kGoOn;
+    // The crossing keeps the pose and its cost, so the rules judge the step as taken. It is not an
+    // escape (no budget, no new start for the stall rule): a hinge that the next step presses
+    // against the other bound crosses back, and a run of such steps gaining little is a creep the
+    // limits hold (a joint rests on a bound), escaped as before. (Crossing only a hinge that had
+    // just arrived at its bound, or each hinge once per descent, left more goals unmet:
+    // docs/robots-bench.md.)
+    const bool crossed = escapes_.cold_query() && escapes_.cross_full_turn_bounds(params_);
+    const Verdict verdict = judge(cost, creeps);
+    if (!crossed || verdict == Verdict::kMoved) return verdict;
+    moved_();  // the solver's state, of the same pose in new coordinates
+    return verdict == Verdict::kGoOn ? Verdict::kMoved : verdict;
   }
 
   // The solve's end at params, of cost `cost`: the escapes used, and params back at the best pose
@@ -720,6 +762,20 @@ class Loop {
   }
 
  private:
+  // The stall rule and the creeps over the accepted step (after_accepted).
+  Verdict judge(double cost, Creeps creeps) {
+    if (stall_.stalled_after(cost, options_.stall_tolerance))
+      return escape(cost) ? Verdict::kMoved : Verdict::kStalled;
+    if (!stall_.creeping()) return Verdict::kGoOn;  // creep_is_long implies creeping too
+    if (creeps == Creeps::kEvery) {
+      if (escape(cost)) return Verdict::kMoved;
+      // No escape left: a creep the limits hold would creep on in vain; any other is still progress.
+      return escapes_.creep_is_stuck(params_) ? Verdict::kStalled : Verdict::kGoOn;
+    }
+    if (escapes_.creep_is_stuck(params_)) return escape(cost) ? Verdict::kMoved : Verdict::kStalled;
+    return escapes_.creep_is_long(stall_) && escape(cost) ? Verdict::kMoved : Verdict::kGoOn;
+  }
+
   const SolverOptions& options_;
   double* params_;
   Moved moved_;
