@@ -45,7 +45,7 @@ struct SolverOptions {
   // before every iteration (the first included), before each linearisation of DLS and the
   // pseudo-inverse, and inside the long inner loops (the pseudo-inverse's halvings, BFGS's
   // line-search steps and its O(n^2) passes every 64 columns, CCD's and FABRIK's sweeps every 16
-  // joints, the sweeps of eigen-decompositions of 9 x 9 and up, the escapes), so a solve overruns
+  // joints, eigen-decompositions of 9 x 9 and up every 10k flops of a sweep, the escapes), so a solve overruns
   // it by at most one such piece plus the exit work. Each check also times the gap since the one
   // before, and the solve stops before the budget's end when the next piece and the exit work,
   // predicted from those gaps, would end past 1.1 x budget + 20 us (Deadline::foreseen; a budget
