@@ -263,7 +263,7 @@ Cell run_ours(Arm& arm, const SolverSpec& spec, bool full_pose, int restarts, do
   o.max_restarts = restarts;
   o.restart_seed = 1;
   o.time_budget_usec = budget_us;
-  // No safety cap (SolverOptions::time_cap_usec, 50 ms of wall clock), the only clock a row without
+  // No safety cap (SolverOptions::time_cap_usec, 50 ms of CPU time), the only clock a row without
   // a budget would read: failure counts are compared run against run, and at --iterations 300 one
   // run beside a build failed 2 more of the same 12,000 goals than two quieter runs of the same
   // binary. A budget row has its budget.

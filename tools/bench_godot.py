@@ -69,7 +69,7 @@ def godot_env(work, name):
         d = os.path.join(work, "xdg", name, sub)
         os.makedirs(d, exist_ok=True)
         env[var] = d
-    # No wall-clock safety cap (src/godot/ik_modifier.cpp, time_cap_usec()): on a loaded machine a
+    # No safety cap (src/godot/ik_modifier.cpp, time_cap_usec()): on a loaded machine a
     # slow deterministic frame met it in one process and not in the other (not bit-identical), and
     # under callgrind (20-100x slower than native) it cut solves by the machine's load. The cap is
     # the one load-dependent rule; what is measured here is the solver.

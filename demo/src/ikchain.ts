@@ -94,7 +94,7 @@ export interface SolveOptions {
   orientationTolerance?: number; // rad
   warmStart?: boolean; // start from the current pose (true) or the rest pose
   timeBudgetUsec?: number; // µs of wall clock per solve, restarts included; 0 = none
-  // The core's safety cap on a solve's wall-clock time (µs, 0 = none; the core's default 50 ms): a
+  // The core's safety cap on a solve's CPU time (µs, 0 = none; the core's default 50 ms): a
   // net, not a budget. Tests that must not depend on the machine's load turn it off.
   timeCapUsec?: number;
 }

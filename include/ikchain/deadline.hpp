@@ -1,7 +1,12 @@
-// The wall-clock limits of one solve, checked cheaply: SolverOptions::time_budget_usec (checked at
-// every spent() call: before every iteration and inside the long inner loops) and the safety cap
-// SolverOptions::time_cap_usec (alone, checked at every 8th call, so a short solve reads no clock
-// for it). The solvers call spent(); nothing else reads the clock.
+// The time limits of one solve, checked cheaply: SolverOptions::time_budget_usec, wall-clock time
+// (checked at every spent() call: before every iteration and inside the long inner loops), and the
+// safety cap SolverOptions::time_cap_usec, the solving thread's CPU time (checked at every 8th call,
+// so a short solve reads no clock for it). The cap is a net for runaway work: on the wall clock, a
+// thread the system set aside for 50 ms (a loaded machine) had its solve cut short, a visible pop
+// for work it never did (a Godot test's punching body, in CI). It counts from its first check, the
+// 8th call (a CPU-clock reading is a system call, ~175 ns, more than a short solve's whole cost);
+// with a budget no longer than the cap it is not armed at all (CPU time never runs ahead of the
+// wall clock). The solvers call spent(); nothing else reads the clocks.
 //
 // Work per clock reading (issue 16, item 6): the bound "1.1 x budget + 20 us" holds only if no
 // stretch of work between two readings is long. Timing that is noisy, so the kernels that dominate
@@ -45,14 +50,20 @@ struct Deadline {
     return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now().time_since_epoch()).count();
   }
   double now_us() const { return clock_us ? clock_us() : steady_now_us(); }
+  // The calling thread's CPU time (microseconds; the steady clock where the platform has none).
+  static double thread_cpu_now_us();
 
-  // Arms the budget and the cap (each 0 = none) from `start_us` (a now_us() reading); clears `hit`.
-  // `ratio`: the longest stretch the set-up predicts, in set-up gaps (stretch_ratio; 0: none).
-  void start(double budget_us, double start_us, double cap_us = 0.0, double ratio = 0.0) {
-    const bool budget = budget_us > 0.0, cap = cap_us > 0.0;
-    active = budget || cap;
+  // Arms the budget (from `start_us`, a now_us() reading) and the cap (from its first check), each
+  // 0 = none; clears `hit`. `ratio`: the longest stretch the set-up predicts, in set-up gaps
+  // (stretch_ratio; 0: none).
+  void start(double budget_us, double start_us, double cap_limit_us = 0.0, double ratio = 0.0) {
+    const bool budget = budget_us > 0.0;
+    cap_us = cap_limit_us > 0.0 && !(budget && budget_us <= cap_limit_us) ? cap_limit_us : 0.0;
+    active = budget || cap_us > 0.0;
     every_call = budget;
-    end_us = start_us + (budget && cap ? std::min(budget_us, cap_us) : budget ? budget_us : cap_us);
+    end_us = budget ? start_us + budget_us : 0.0;
+    cap_armed = cap_hit = false;
+    cap_start_us = cap_end_us = 0.0;
     calls = 0;
     hit = false;
     foreseen = false;
@@ -67,11 +78,17 @@ struct Deadline {
   bool spent() {
     if (hit) return true;  // spent stays spent: no more clock readings
     if (!active) return false;
-    if (!every_call && (++calls & 7u) != 0u) return false;  // the cap alone: every 8th call
+    const bool cap_due = cap_us > 0.0 && (++calls & 7u) == 0u;  // the cap: every 8th call
+    if (!every_call) {
+      if (!cap_due) return false;
+      close_stretch();
+      return cap_spent(cpu_now_us());
+    }
     close_stretch();
     const double now = now_us();
     if (now >= end_us) return hit = true;
-    if (!every_call) return false;
+    // (A fake clock stands for both clocks: one reading a check.)
+    if (cap_due && cap_spent(clock_us ? now : thread_cpu_now_us())) return true;
     // The budget: the next stretch and the exit work must end within the bound (see the top).
     const double gap = now - last_reading_us;
     const bool first = ++budget_readings == 1;
@@ -149,9 +166,14 @@ struct Deadline {
 
   bool active = false;
   bool every_call = false;  // a budget is set: read the clock at every check
+  double cap_us = 0.0;      // the armed cap (CPU us; 0: none)
+  bool cap_armed = false;   // its first check has read the CPU clock: cap_end_us is set
+  bool cap_hit = false;     // the cap, not the budget, found the time spent
+  double cap_start_us = 0.0;  // the CPU time (or the fake clock's) of the reading that armed the cap
+  double cap_end_us = 0.0;    // ... and at which it is spent
   bool hit = false;
   unsigned calls = 0;
-  double end_us = 0.0;
+  double end_us = 0.0;  // the budget's end on the wall clock (or the fake clock's; 0: no budget)
   double stretch = 0.0;          // flops charged since the last clock reading
   double longest_stretch = 0.0;  // the most flops between two readings since start()
   double exit_stretch = 0.0;     // the flops after the last reading (the exit work), set by finish()
@@ -163,6 +185,19 @@ struct Deadline {
   unsigned budget_readings = 0;
 
  private:
+  double cpu_now_us() const { return clock_us ? clock_us() : thread_cpu_now_us(); }
+  // The cap's check at `cpu_us`: the first arms it, the later ones compare.
+  bool cap_spent(double cpu_us) {
+    if (!cap_armed) {
+      cap_armed = true;
+      cap_start_us = cpu_us;
+      cap_end_us = cpu_us + cap_us;
+      return false;
+    }
+    if (cpu_us < cap_end_us) return false;
+    cap_hit = true;
+    return hit = true;
+  }
   void close_stretch() {
     longest_stretch = std::max(longest_stretch, stretch);
     stretch = 0.0;

@@ -54,12 +54,15 @@ struct SolverOptions {
   // and the safety cap"). The result then has reason kMaxIterations (or kUnreachable for a provable
   // best reach) and budget_exhausted = true, with the best pose reached so far.
   double time_budget_usec = 0.0;
-  // A safety cap on every solve's wall-clock time (microseconds, >= 0; 0 = none), on whether or not
-  // time_budget_usec is set: one misconfigured solve (the pseudo-inverse on 200 bones at 1,000
-  // iterations took 1.9 s) must not freeze a game. Far above any frame (kDefaultTimeCapUsec = 50 ms):
-  // a net, not a budget; set time_budget_usec for a frame's share. A solve the cap stops ends like a
-  // budget-bound one (budget_exhausted = true). Checked at every 8th budget check when no
-  // time_budget_usec is set, so short solves read no clock for it (docs/solvers.md, "Time budget").
+  // A safety cap on every solve's CPU time, the solving thread's (microseconds, >= 0; 0 = none), on
+  // whether or not time_budget_usec is set: one misconfigured solve (the pseudo-inverse on 200 bones
+  // at 1,000 iterations took 1.9 s) must not freeze a game. Far above any frame (kDefaultTimeCapUsec
+  // = 50 ms): a net, not a budget; set time_budget_usec for a frame's share. CPU time, not the wall
+  // clock: a thread the system sets aside has its solve cut for work it never did (a pop on a loaded
+  // machine). A solve the cap stops ends like a budget-bound one (budget_exhausted = true). Checked
+  // at every 8th budget check, counted from the first of those (a CPU-clock reading is a system
+  // call), so short solves read no clock for it; under a budget no longer than the cap it is not
+  // checked at all (docs/solvers.md, "Time budget").
   double time_cap_usec = kDefaultTimeCapUsec;
   // Restarts (off by default: a game wants frame-to-frame continuity, and a restart may jump to
   // another branch). When a solve ends without meeting its goals and they are not provably out of

@@ -469,9 +469,9 @@ SolveResult solve(SolverKind kind, const Chain& chain, Span<const Goal> goals, c
     goals = Span<const Goal>(ws.softened_goals.data(), goals.size);
   }
   ws.params_backup = params;
-  // The budget's and the cap's start: the reading `start` above (a second read is not free next to a
-  // short solve), or the fake clock's when a test installed one.
-  const bool timed = options.time_budget_usec > 0.0 || options.time_cap_usec > 0.0;
+  // The budget's start: the reading `start` above (a second read is not free next to a short
+  // solve), or the fake clock's when a test installed one. The cap arms itself (Deadline).
+  const bool timed = options.time_budget_usec > 0.0;
   const double start_us = !timed                  ? 0.0
                           : ws.deadline.clock_us ? ws.deadline.now_us()
                                                  : std::chrono::duration<double, std::micro>(start.time_since_epoch()).count();

@@ -306,14 +306,13 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   result.goal_count = problem.goals.size;
   ws.params_backup = params;
   // The budget and the safety cap (SolverOptions::time_cap_usec), as solve() arms them.
-  const bool timed = options.time_budget_usec > 0.0 || options.time_cap_usec > 0.0;
-  ws.deadline.start(options.time_budget_usec, timed ? ws.deadline.now_us() : 0.0, options.time_cap_usec);
+  const bool budgeted = options.time_budget_usec > 0.0;
+  ws.deadline.start(options.time_budget_usec, budgeted ? ws.deadline.now_us() : 0.0, options.time_cap_usec);
   if (!options.warm_start) params.setZero();
   project_tree_to_limits(tree, params.data());
 
   // A budget can stop a solve before it moves: then the start pose comes back, already measured
   // (its per-goal errors too), and the exit work measures it no second time (below).
-  const bool budgeted = options.time_budget_usec > 0.0;
   if (budgeted) ws.params_start = params;
   tree_forward_kinematics(tree, params.data(), ws);
   const TreeErrors start_errors =

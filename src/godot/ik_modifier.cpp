@@ -42,9 +42,9 @@ void IKModifier::unregister_names() {
 }
 
 namespace {
-// The core's wall-clock safety cap (SolverOptions::time_cap_usec), or what the environment variable
-// IKCHAIN_TIME_CAP_USEC sets (microseconds, 0 = none), read once. Only for measuring: under
-// valgrind the code runs 20-100x slower while the wall clock does not, so the cap would cut solves
+// The core's safety cap on a solve's CPU time (SolverOptions::time_cap_usec), or what the environment
+// variable IKCHAIN_TIME_CAP_USEC sets (microseconds, 0 = none), read once. Only for measuring: under
+// valgrind the code runs 20-100x slower, its CPU time with it, so the cap would cut solves
 // that take a millisecond natively, and the instruction counts would depend on the machine's load
 // (tools/bench_godot.py sets it to 0 for its callgrind runs).
 double time_cap_usec() {

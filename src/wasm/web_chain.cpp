@@ -138,7 +138,7 @@ ConvergenceTrace convergence_trace(int solver_kind) {
   trace.tolerance = bench_cases::kRelTolerance * c.total_length();
   c.set_tolerances(trace.tolerance, c.options().orientation_tolerance);
   c.set_warm_start(false);
-  // Every budget runs in full: the core's 50 ms wall-clock cap would make the figure depend on
+  // Every budget runs in full: the core's 50 ms CPU-time cap would make the figure depend on
   // how busy the machine is.
   c.set_time_cap_usec(0.0);
   c.add_position_goal(target.x, target.y, target.z, 0, 1.0);

@@ -22,7 +22,7 @@ class WebOptions {
   }
   void set_warm_start(bool on) { options_.warm_start = on; }
   void set_time_budget_usec(double usec) { options_.time_budget_usec = usec; }
-  // The core's wall-clock safety cap (SolverOptions::time_cap_usec, 0 = none).
+  // The core's safety cap on a solve's CPU time (SolverOptions::time_cap_usec, 0 = none).
   void set_time_cap_usec(double usec) { options_.time_cap_usec = usec; }
   const SolverOptions& options() const { return options_; }
 

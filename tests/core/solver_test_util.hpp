@@ -44,7 +44,7 @@ inline SolverOptions tolerance_options(const Chain& c) {
   return o;
 }
 
-// Robot arms (the robots bench's criterion): 1e-5 L and 1e-4 rad, no wall-clock cap, no restart.
+// Robot arms (the robots bench's criterion): 1e-5 L and 1e-4 rad, no time cap, no restart.
 inline SolverOptions arm_options(const Chain& c) {
   SolverOptions o = tolerance_options(c);
   o.orientation_tolerance = 1e-4;

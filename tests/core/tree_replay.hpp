@@ -45,7 +45,7 @@ inline Replay replay_clip(const char* path, double metres_per_unit, const std::s
   }
   out.loaded = true;
   std::string note;
-  SolverOptions options;  // body_bench's (the defaults), without the wall-clock cap: the verdict
+  SolverOptions options;  // body_bench's (the defaults), without the time cap: the verdict
   options.time_cap_usec = 0.0;  // must not depend on the machine's load
   std::vector<std::unique_ptr<body::BodySolver>> solvers = body::make_tree_solvers(m, options, note);
   body::BodySolver* solver = nullptr;

@@ -47,7 +47,7 @@ struct RateCase {
   double max_median_position_error;  // m, over the 100 poses
 };
 
-// The rate of 100 poses (tree_reach.hpp) with max_iterations 500 and no wall-clock cap (the verdict
+// The rate of 100 poses (tree_reach.hpp) with max_iterations 500 and no time cap (the verdict
 // must not depend on the machine's load); prints the measured numbers.
 test::ReachRate rate_of_100(SolverKind kind, bool floating, bool orientation) {
   SolverOptions o;
@@ -147,7 +147,7 @@ TEST(TreeSolvers, WeightedSolversFavourLevelOne) {
   p.goals = goals;
   SolverOptions o;
   o.max_iterations = 500;
-  o.time_cap_usec = 0.0;  // no wall-clock cap: the verdict must not depend on the machine's load
+  o.time_cap_usec = 0.0;  // no time cap: the verdict must not depend on the machine's load
   for (SolverKind kind : tree_solvers()) {
     Eigen::VectorXd q = rest;
     const TreeSolveResult r = solve_tree(kind, t, p, o, ws, q);

@@ -451,17 +451,29 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           "non-finite result field", r.initial_error, r.final_error);
   REQUIRE(r.iterations >= 0, "negative iterations", r.iterations);
   // The budget (and the cap): no reading after the one that found it spent, and the flag says so.
-  if (ws.deadline.hit) {
+  // The cap is checked at every 8th check only, so with a budget a reading between two of its checks
+  // may pass its end unnoticed; alone, all its readings are its checks.
+  if (ws.deadline.hit && ws.deadline.cap_hit) {
+    // (The reading before may be the arming one when the cap is below its ulp.)
+    REQUIRE(clock_end >= ws.deadline.cap_end_us &&
+                (ws.deadline.every_call || clock_before_end < ws.deadline.cap_end_us ||
+                 clock_before_end == ws.deadline.cap_start_us),
+            "the clock was read again after the cap was found spent", clock_end, ws.deadline.cap_end_us);
+  } else if (ws.deadline.hit) {
     // (The reading before may be the arming one, at g_tick, when the budget is below its ulp.)
     // It found it spent at the budget's end, or before it when the next stretch and the exit work,
     // predicted from the gaps between readings, would have ended past the bound (Deadline::foreseen).
     REQUIRE((clock_end >= ws.deadline.end_us || (ws.deadline.foreseen && clock_end == ws.deadline.last_reading_us)) &&
                 (clock_before_end < ws.deadline.end_us || clock_before_end == g_tick),
             "the clock was read again after the budget was found spent", clock_end, ws.deadline.end_us);
-  } else {
+  } else if (ws.deadline.every_call) {
     // (Again except the arming reading, which is no check: a solve may make no check at all.)
-    REQUIRE(!ws.deadline.active || clock_end < ws.deadline.end_us || clock_end == g_tick,
-            "a reading past the budget went unnoticed", clock_end, ws.deadline.end_us);
+    REQUIRE(clock_end < ws.deadline.end_us || clock_end == g_tick, "a reading past the budget went unnoticed",
+            clock_end, ws.deadline.end_us);
+  } else {
+    REQUIRE(!ws.deadline.cap_armed || clock_end < ws.deadline.cap_end_us || clock_end == ws.deadline.cap_start_us,
+            "a reading past the cap went unnoticed",
+            clock_end, ws.deadline.cap_end_us);
   }
   REQUIRE(!r.budget_exhausted || r.reason == TerminationReason::kMaxIterations ||
               r.reason == TerminationReason::kUnreachable,
