@@ -69,6 +69,16 @@ func _feet_planted_body(skel: Skeleton3D, body: IKBody, others: Array) -> Dictio
 
 
 ## The poses at the next skeleton_updated (lib/body.gd capture()).
+## A humanoid in the case's root with an IKBody under it, set up by setup_humanoid().
+func _set_up_humanoid() -> IKBody:
+	var skel := Body.humanoid()
+	case_root.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	body.setup_humanoid()
+	return body
+
+
 func _capture(skel: Skeleton3D, body: IKBody, idle_ok := false) -> Dictionary:
 	return await Body.capture(self, skel, body, idle_ok)
 
@@ -799,11 +809,8 @@ func test_scene_round_trip_keeps_the_rig() -> void:
 # reach, and no bone jumps (a pop: a bone moving more than 5 cm between frames while the targets
 # move 1.3 cm).
 func test_tracking_moving_hands_without_pops() -> void:
-	var skel := Body.humanoid()
-	case_root.add_child(skel)
-	var body := IKBody.new()
-	skel.add_child(body)
-	body.setup_humanoid()
+	var body := _set_up_humanoid()
+	var skel := body.get_parent() as Skeleton3D
 	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
 	var rfoot := skel.get_bone_global_pose(skel.find_bone("RightFoot"))
 	var chest := skel.get_bone_global_pose(skel.find_bone("UpperChest")).origin
@@ -844,11 +851,8 @@ func test_tracking_moving_hands_without_pops() -> void:
 # frame. Measured: 6.95 cm at most (7.3 cm while setup_humanoid() gave the elbows a posture; the
 # torso at the default 0.1 then moved the head 11.5 cm, now 4.5 cm: the next test).
 func test_posture_stiffness_holds_the_torso_of_a_punching_body() -> void:
-	var skel := Body.humanoid()
-	case_root.add_child(skel)
-	var body := IKBody.new()
-	skel.add_child(body)
-	body.setup_humanoid()
+	var body := _set_up_humanoid()
+	var skel := body.get_parent() as Skeleton3D
 	var torso := {}
 	for j in body.joints:
 		if j.bone_name in ["Spine", "Chest", "UpperChest", "Neck"]:
@@ -874,11 +878,8 @@ func test_posture_stiffness_holds_the_torso_of_a_punching_body() -> void:
 # elbows straightened to 61.8 deg, the torso leaned up to 45 deg and the head moved 11.5 cm a
 # frame; at 0, 110.7 deg, 31 deg (the punches beyond the arm's reach) and 4.5 cm.
 func test_set_up_humanoid_punches_without_leaning_into_straight_arms() -> void:
-	var skel := Body.humanoid()
-	case_root.add_child(skel)
-	var body := IKBody.new()
-	skel.add_child(body)
-	body.setup_humanoid()
+	var body := _set_up_humanoid()
+	var skel := body.get_parent() as Skeleton3D
 	for j in body.joints:
 		check_eq(j.posture_stiffness, 0.0 if j.bone_name.ends_with("LowerArm") else 0.1, j.bone_name + ": posture_stiffness")
 	var punched := await _punch(skel, body)
@@ -893,11 +894,8 @@ func test_set_up_humanoid_punches_without_leaning_into_straight_arms() -> void:
 # static targets far from its rest (hips 12 cm down, hands in front, head turned): measured, the
 # largest bone move on the next five frames 3.2 mm (without the settle 14.8 mm, then 8 mm a frame).
 func test_first_frame_settles_so_still_targets_keep_the_body_still() -> void:
-	var skel := Body.humanoid()
-	case_root.add_child(skel)
-	var body := IKBody.new()
-	skel.add_child(body)
-	body.setup_humanoid()
+	var body := _set_up_humanoid()
+	var skel := body.get_parent() as Skeleton3D
 	var held := {}
 	for bone in ["Hips", "LeftFoot", "RightFoot", "Head"]:
 		held[bone] = _target("T" + bone, skel.get_bone_global_pose(skel.find_bone(bone)))
@@ -946,11 +944,8 @@ func test_hostile_non_finite_incoming_pose_is_refused_by_name() -> void:
 func test_gizmo_drawing_of_the_set_up_body() -> void:
 	var BodyDrawer: GDScript = load("res://addons/ikchain/ik_body_drawer.gd")
 	var Lines: GDScript = load("res://addons/ikchain/gizmo/ik_chain_gizmo_lines.gd")
-	var skel := Body.humanoid()
-	case_root.add_child(skel)
-	var body := IKBody.new()
-	skel.add_child(body)
-	body.setup_humanoid()
+	var body := _set_up_humanoid()
+	var skel := body.get_parent() as Skeleton3D
 	var lfoot := skel.get_bone_global_pose(skel.find_bone("LeftFoot"))
 	var hand_goal := skel.get_bone_global_pose(skel.find_bone("LeftHand")).origin + Vector3(0, -0.1, 0.1)
 	for e in body.effectors:
