@@ -91,6 +91,9 @@ struct TreeWorkspace {
   Eigen::MatrixXd coupling;       // (3 * max_goals)^2: G^-1 A Jl^T
   Eigen::VectorXd residual;       // 3 * max_goals, weighted, level order
   Eigen::VectorXd residual_trial;
+  // max_goals, by goal index: each goal's error (tree_measure's goal_error) at the pose of
+  // `residual` and of `residual_trial`, and at the best pose (the tree DLS's, returned measured).
+  Eigen::VectorXd goal_error, goal_error_trial, goal_error_best;
   Eigen::VectorXd row_vec_a, row_vec_b;
   Eigen::VectorXd step;           // dofs
   Eigen::VectorXd dof_vec_a, dof_vec_b, dof_scale;

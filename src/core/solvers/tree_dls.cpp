@@ -814,7 +814,7 @@ bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const do
 }  // namespace
 
 TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& o,
-                                TreeWorkspace& ws, double* params) {
+                                TreeWorkspace& ws, double* params, const TreeErrors& start) {
   TreeSolverStatus status;
   const int n = tree.dof_count();
   HierarchicalStep model(tree, problem, ws);
@@ -827,8 +827,11 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     fk_of_trial = p == ws.params_trial.data();
   };
 
-  // ws holds the FK of params (solve_tree() measured the start pose).
-  TreeErrors current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), residual, nullptr);
+  // ws holds the FK of params, solve_tree() measured it: its residual rows, in goal order, go
+  // to level order (the measure in level order sums each level's goals in the same order).
+  TreeErrors current = start;
+  for (int k = 0; k < problem.goals.size; ++k)
+    for (int i = 0; i < 3; ++i) residual[3 * k + i] = ws.residual_trial[3 * ws.goal_order[k] + i];
   double current_posture = posture_cost(tree, problem, params);
   tree_dof_axes(tree, params, ws, true);
   model.linearize();
@@ -850,6 +853,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   stuck::StallRule stall;  // by each accepted step's lexicographic gain (stalled_after_gain)
   // The best pose seen (lexicographically): escapes may leave it, the result returns to it.
   std::copy(params, params + n, ws.params_best.data());
+  ws.goal_error_best.head(problem.goals.size) = ws.goal_error.head(problem.goals.size);
   TreeErrors best = current;
   double best_posture = current_posture;
   const LevelCosts relaxed = met_costs(problem, o, kRelaxedTolerances);
@@ -867,7 +871,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     // a minimum no first-order step leaves, and neither is "down" for the hips above it.
     if (!tree_common::escape(tree, ws, model.columns(), status.escapes, params)) return false;
     forward(params);
-    current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), nullptr);
+    current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), ws.goal_error.data());
     residual = ws.residual.data();
     current_posture = posture_cost(tree, problem, params);
     tree_dof_axes(tree, params, ws, true);
@@ -939,7 +943,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     if (trial_ok) {
       make_trial(tree, o, params, ws.step.data(), ws.params_trial.data());
       forward(ws.params_trial.data());
-      trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
+      trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(),
+                           ws.goal_error_trial.data());
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = accept(trial, trial_posture);
       if (!trial_ok && (model.level_count() > 1 || !problem.posture.empty()) && !ws.deadline.spent() &&
@@ -948,7 +953,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         ws.dof_vec_b = ws.params_trial;
         make_trial(tree, o, ws.dof_vec_b.data(), ws.step.data(), ws.params_trial.data());
         forward(ws.params_trial.data());
-        trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
+        trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(),
+                           ws.goal_error_trial.data());
         trial_posture = posture_cost(tree, problem, ws.params_trial.data());
         trial_ok = accept(trial, trial_posture);
       }
@@ -972,11 +978,13 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       const double stall_gain = lexicographic_gain(trial, current, gain);
       std::copy(ws.params_trial.data(), ws.params_trial.data() + n, params);
       std::swap(ws.residual, ws.residual_trial);
+      ws.goal_error.swap(ws.goal_error_trial);
       residual = ws.residual.data();
       current = trial;
       current_posture = trial_posture;
       if (better(current, current_posture, best, best_posture, strict)) {
         std::copy(params, params + n, ws.params_best.data());
+        ws.goal_error_best.head(problem.goals.size) = ws.goal_error.head(problem.goals.size);
         best = current;
         best_posture = current_posture;
       }
@@ -1035,6 +1043,10 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   const bool returns_best = better(best, best_posture, current, current_posture, strict);
   if (returns_best) std::copy(ws.params_best.data(), ws.params_best.data() + n, params);
   status.fk_of_params = fk_of_trial ? std::equal(params, params + n, ws.params_trial.data()) : !returns_best;
+  // current measures params, best params_best (in level order, as solve_tree() measures them).
+  status.measured = true;
+  status.errors = returns_best ? best : current;
+  if (returns_best) ws.goal_error.head(problem.goals.size) = ws.goal_error_best.head(problem.goals.size);
   return status;
 }
 
