@@ -48,6 +48,8 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   support_runs.assign(2 * max_goals * (joints + 1), 0);
   run_begin.assign(max_goals + 1, 0);
   shared_columns.assign(max_goals * max_goals, 0);
+  setup_tree = 0;
+  setup_goals.assign(2 * max_goals, -1);
   dof_square.setZero(dofs, dofs);
   gradient.setZero(dofs);
   gradient_trial.setZero(dofs);
