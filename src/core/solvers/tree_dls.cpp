@@ -817,8 +817,10 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
     const int d = tree.dof_offset(j);
     if (!is_one_dof(tree.joint_type(j))) {
       glm::dvec3 s(step[d], step[d + 1], step[d + 2]);
-      const double len = glm::length(s);
-      if (o.max_step_angle > 0.0 && len > o.max_step_angle) s *= o.max_step_angle / len;
+      if (o.max_step_angle > 0.0) {  // the length only then (by default there is no cap)
+        const double len = glm::length(s);
+        if (len > o.max_step_angle) s *= o.max_step_angle / len;
+      }
       const glm::dvec3 r = so3::wrap_rotation_vector(glm::dvec3(params[d], params[d + 1], params[d + 2]) + s);
       trial[d] = r.x;
       trial[d + 1] = r.y;
