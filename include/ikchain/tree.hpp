@@ -129,6 +129,10 @@ class Tree {
   double lever(int e) const { return lever_[e]; }
   // Sum of every bone length (m): the scale for relative thresholds.
   double total_length() const { return total_length_; }
+  // Which build this tree is (unique per successful TreeBuilder::build, kept by copies; 0: none):
+  // a tree changes only by a new build, so what was derived from one serial still holds for it
+  // (the tree DLS's set-up in TreeWorkspace).
+  uint64_t serial() const { return serial_; }
 
  private:
   friend class TreeBuilder;
@@ -154,6 +158,7 @@ class Tree {
   bool floating_root_ = false;
   double translation_motion_cost_ = 1.0;
   double total_length_ = 0.0;
+  uint64_t serial_ = 0;
 };
 
 }  // namespace ikchain

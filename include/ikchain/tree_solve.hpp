@@ -91,6 +91,9 @@ struct TreeWorkspace {
   Eigen::MatrixXd coupling;       // (3 * max_goals)^2: G^-1 A Jl^T
   Eigen::VectorXd residual;       // 3 * max_goals, weighted, level order
   Eigen::VectorXd residual_trial;
+  // max_goals, by goal index: each goal's error (tree_measure's goal_error) at the pose of
+  // `residual` and of `residual_trial`, and at the best pose (the tree DLS's, returned measured).
+  Eigen::VectorXd goal_error, goal_error_trial, goal_error_best;
   Eigen::VectorXd row_vec_a, row_vec_b;
   Eigen::VectorXd step;           // dofs
   Eigen::VectorXd dof_vec_a, dof_vec_b, dof_scale;
@@ -107,6 +110,14 @@ struct TreeWorkspace {
   std::vector<int> support_runs;  // 2 * max_goals * (joints + 1)
   std::vector<int> run_begin;     // max_goals + 1
   std::vector<int> shared_columns;  // max_goals^2
+  // What the tree DLS's set-up in goal_order, active_dofs, dof_column, dof_scale, support_runs,
+  // run_begin and shared_columns was derived from: the tree's build (Tree::serial; 0: nothing
+  // holds, after reset() or another tree solver's use of dof_column and active_dofs), and each
+  // goal's effector and level (setup_goals[2 g], [2 g + 1]); setup_columns is its column count.
+  // A tracking solve of the same tree and goals skips that set-up.
+  uint64_t setup_tree = 0;
+  int setup_goal_count = 0, setup_columns = 0;
+  std::vector<int> setup_goals;   // 2 * max_goals
 
   // The weighted-sum solvers (BFGS, CCD, FABRIK; solvers/tree_common.hpp).
   Eigen::MatrixXd dof_square;     // dofs x dofs: BFGS's inverse Hessian (lower triangle)

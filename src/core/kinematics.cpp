@@ -363,11 +363,13 @@ int ball_blocked(const Chain& chain, int joint, const double* params, const doub
 }
 
 int ball_params_blocked(const JointLimits& l, const double* p, const double* direction, glm::dvec3 normals[2]) {
+  // The bounds first: most joints rest on none (ball_bounds' test without trigonometry), and then
+  // the step's length is not needed.
+  const BallBounds bounds = ball_bounds(l, p);
+  if (!bounds.any()) return 0;
   const glm::dvec3 d(direction[0], direction[1], direction[2]);
   const double tolerance = 1e-9 * glm::length(d);
   if (!(tolerance > 0.0)) return 0;
-  const BallBounds bounds = ball_bounds(l, p);
-  if (!bounds.any()) return 0;
   const bool on_cone = bounds.on_cone, at_max = bounds.at_max, at_min = bounds.at_min;
   const glm::dvec3& r = bounds.r;
   const glm::dquat& q = bounds.q;

@@ -1,6 +1,7 @@
 #include "ikchain/tree.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "ikchain/so3.hpp"
@@ -154,6 +155,8 @@ TreeBuildError TreeBuilder::build(Tree& out, const char* axis_name) const {
   if (!(total > 1e-9))
     return joint_error(-1, "offset_in_parent", Message::format("zero-length tree: every bone has length 0"));
   t.total_length_ = total;
+  static std::atomic<uint64_t> next_serial{1};
+  t.serial_ = next_serial.fetch_add(1, std::memory_order_relaxed);
   out = std::move(t);
   return TreeBuildError();
 }

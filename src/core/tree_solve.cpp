@@ -28,6 +28,9 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   coupling.setZero(rows, rows);
   residual.setZero(rows);
   residual_trial.setZero(rows);
+  goal_error.setZero(max_goals);
+  goal_error_trial.setZero(max_goals);
+  goal_error_best.setZero(max_goals);
   row_vec_a.setZero(rows);
   row_vec_b.setZero(rows);
   step.setZero(dofs);
@@ -45,6 +48,8 @@ void TreeWorkspace::reset(const Tree& tree, int goals) {
   support_runs.assign(2 * max_goals * (joints + 1), 0);
   run_begin.assign(max_goals + 1, 0);
   shared_columns.assign(max_goals * max_goals, 0);
+  setup_tree = 0;
+  setup_goals.assign(2 * max_goals, -1);
   dof_square.setZero(dofs, dofs);
   gradient.setZero(dofs);
   gradient_trial.setZero(dofs);
@@ -277,12 +282,13 @@ namespace {
 // The tree solvers, by kind (the rows of the solver table whose `trees` column is true; the
 // validation refused every other kind by name).
 TreeSolverStatus run_tree_solver(SolverKind kind, const Tree& tree, const TreeProblem& problem,
-                                 const SolverOptions& options, TreeWorkspace& ws, double* params) {
+                                 const SolverOptions& options, TreeWorkspace& ws, double* params,
+                                 const TreeErrors& start) {
   switch (kind) {
     case SolverKind::kBFGS: return solve_tree_bfgs(tree, problem, options, ws, params);
     case SolverKind::kCCD: return solve_tree_ccd(tree, problem, options, ws, params);
     case SolverKind::kFABRIK: return solve_tree_fabrik(tree, problem, options, ws, params);
-    default: return solve_tree_dls(tree, problem, options, ws, params);
+    default: return solve_tree_dls(tree, problem, options, ws, params, start);
   }
 }
 
@@ -315,19 +321,24 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   // (its per-goal errors too), and the exit work measures it no second time (below).
   if (budgeted) ws.params_start = params;
   tree_forward_kinematics(tree, params.data(), ws);
+  // With the residual rows and the goals' errors: the DLS takes this measure over (and with no
+  // solver to run, it is the result's).
   const TreeErrors start_errors =
-      tree_measure(tree, problem, options, ws, nullptr, nullptr, budgeted ? result.goal_error.data() : nullptr);
+      tree_measure(tree, problem, options, ws, nullptr, ws.residual_trial.data(), ws.goal_error.data());
+  if (budgeted) std::copy(ws.goal_error.data(), ws.goal_error.data() + problem.goals.size, result.goal_error.data());
   summary.initial_error = std::sqrt(2.0 * start_errors.cost);
   summary.initial_position_error = start_errors.max_position;
   summary.initial_orientation_error = start_errors.max_orientation;
 
   TreeSolverStatus status;
   status.reason = TerminationReason::kConverged;
-  status.fk_of_params = true;  // when no solver runs: the start pose's FK above
+  status.fk_of_params = true;  // when no solver runs: the start pose's FK and measure above
+  status.measured = true;
+  status.errors = start_errors;
   // The budget after the set-up, as solve() reads it: gone, or the solver's own set-up would take
   // it past the bound, the start pose comes back, measured (issue 16, item 6).
   if ((!start_errors.all_met() || !problem.posture.empty()) && !ws.deadline.spent_before_solver())
-    status = run_tree_solver(kind, tree, problem, options, ws, params.data());
+    status = run_tree_solver(kind, tree, problem, options, ws, params.data(), start_errors);
   else if (ws.deadline.hit)
     status.reason = TerminationReason::kMaxIterations;
   summary.iterations = status.iterations;
@@ -335,6 +346,7 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
   summary.reason = status.reason;
   if (!params.allFinite()) {
     status.fk_of_params = false;
+    status.measured = false;
     params = ws.params_backup;
     if (!options.warm_start) params.setZero();
     project_tree_to_limits(tree, params.data());
@@ -345,12 +357,17 @@ TreeSolveResult solve_tree(SolverKind kind, const Tree& tree, const TreeProblem&
 
   // The verdict from the pose returned, measured here: it cannot disagree with the pose. The start
   // pose, bit for bit, was measured at the start by the same code; a solver whose last FK pass was
-  // of the pose returned leaves nothing to recompute but the measure.
+  // of the pose returned leaves nothing to recompute but the measure, and one that measured the
+  // pose returned (the DLS, by the same code) not even that.
   const bool unchanged =
       budgeted && std::memcmp(params.data(), ws.params_start.data(), sizeof(double) * tree.dof_count()) == 0;
   if (!unchanged && !status.fk_of_params) tree_forward_kinematics(tree, params.data(), ws);
+  if (!unchanged && status.measured)
+    std::copy(ws.goal_error.data(), ws.goal_error.data() + problem.goals.size, result.goal_error.data());
   const TreeErrors final_errors =
-      unchanged ? start_errors : tree_measure(tree, problem, options, ws, nullptr, nullptr, result.goal_error.data());
+      unchanged         ? start_errors
+      : status.measured ? status.errors
+                        : tree_measure(tree, problem, options, ws, nullptr, nullptr, result.goal_error.data());
   summary.final_error = std::sqrt(2.0 * final_errors.cost);
   summary.final_position_error = final_errors.max_position;
   summary.final_orientation_error = final_errors.max_orientation;

@@ -54,6 +54,47 @@ TEST(TreeSolve, WarmStartTracksAMovingBodyInFewIterations) {
   EXPECT_LE(worst_iterations, 10);
 }
 
+// The tree DLS keeps its set-up (the goals' order and columns, supports, column scales) in the
+// workspace from one solve to the next of the same tree build and goals. A tree rebuilt in place
+// (the same shape, another translation cost: other column scales), another tree solver in
+// between, or the same effectors at other levels must each find it redone: every solve gives
+// what a fresh workspace gives, bit for bit.
+TEST(TreeSolve, AReusedWorkspaceSolvesAsAFreshOneAcrossRebuildsSolversAndLevels) {
+  Tree t = test::make_humanoid(true);
+  std::mt19937 rng(7);
+  const Eigen::VectorXd start = test::random_tree_params(t, rng, 0.5, 0.05);
+  const Eigen::VectorXd target = test::random_tree_params(t, rng, 0.5, 0.05);
+  auto goals_with_hands_at = [&](int hands_level) {
+    std::vector<TreeGoal> goals = pose_goals_at(t, target, {Humanoid::kHipsEffector, Humanoid::kLFoot, Humanoid::kRFoot}, 1);
+    for (const TreeGoal& g : pose_goals_at(t, target, {Humanoid::kLHand, Humanoid::kRHand}, hands_level))
+      goals.push_back(g);
+    return goals;
+  };
+  const std::vector<TreeGoal> hands_second = goals_with_hands_at(2), hands_first = goals_with_hands_at(1);
+  TreeWorkspace ws(t, 12);
+  auto expect_as_fresh = [&](SolverKind kind, const std::vector<TreeGoal>& goals, const char* what) {
+    TreeProblem p;
+    p.goals = goals;
+    TreeWorkspace fresh(t, 12);
+    Eigen::VectorXd reused_q = start, fresh_q = start;
+    const TreeSolveResult reused = solve_tree(kind, t, p, SolverOptions(), ws, reused_q);
+    const TreeSolveResult first = solve_tree(kind, t, p, SolverOptions(), fresh, fresh_q);
+    EXPECT_EQ(reused.summary.iterations, first.summary.iterations) << what;
+    EXPECT_EQ(reused.summary.final_error, first.summary.final_error) << what;
+    EXPECT_EQ(0, std::memcmp(reused_q.data(), fresh_q.data(), sizeof(double) * reused_q.size())) << what;
+  };
+  expect_as_fresh(SolverKind::kDLS, hands_second, "first solve");
+  expect_as_fresh(SolverKind::kDLS, hands_second, "the same goals again (the set-up kept)");
+  TreeBuilder b = test::humanoid_builder(true);
+  b.set_floating_root(true, 4.0);
+  ASSERT_TRUE(b.build(t).ok());
+  expect_as_fresh(SolverKind::kDLS, hands_second, "the tree rebuilt with another translation cost");
+  expect_as_fresh(SolverKind::kBFGS, hands_second, "BFGS");
+  expect_as_fresh(SolverKind::kDLS, hands_second, "DLS after BFGS");
+  expect_as_fresh(SolverKind::kDLS, hands_first, "the hands at level 1");
+  expect_as_fresh(SolverKind::kDLS, hands_second, "the hands back at level 2");
+}
+
 // Feet at level 1, hands chasing targets out of reach at level 2: the feet hold to 1e-4 m, and
 // the hands end where a solve that treats the feet as (nearly) hard constraints ends: the same
 // goals in one level, the feet weighted 1e8 times more.

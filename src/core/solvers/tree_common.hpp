@@ -48,6 +48,7 @@ inline bool is_ancestor_or_self(const Tree& tree, int a, int j) {
 // Lists in ws.active_dofs the DOFs that move any goal's effector (the union of their supports;
 // the floating root's translation included), ascending; returns their count.
 inline int goal_dofs(const Tree& tree, const TreeProblem& problem, TreeWorkspace& ws) {
+  ws.setup_tree = 0;  // the tree DLS's set-up no longer holds
   std::fill(ws.dof_column.begin(), ws.dof_column.end(), -1);
   for (int g = 0; g < problem.goals.size; ++g) {
     const int e = problem.goals[g].goal.effector;

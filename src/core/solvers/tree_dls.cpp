@@ -212,6 +212,12 @@ class HierarchicalStep {
       }
     }
     rows_ = 3 * problem.goals.size;
+    // The rest depends on the tree and the goals' effectors and levels alone: a tracking solve
+    // finds it in ws from the frame before (4 % of a warm body solve's instructions).
+    if (setup_holds()) {
+      cols_ = ws.setup_columns;
+      return;
+    }
     // Active DOFs: those that move any goal's effector, in DOF order (a ball's three stay together).
     std::fill(ws.dof_column.begin(), ws.dof_column.end(), -1);
     for (int g = 0; g < problem.goals.size; ++g) {
@@ -277,9 +283,30 @@ class HierarchicalStep {
         ws.shared_columns[a * goals + b] = shared;
       }
     }
+    ws.setup_tree = tree.serial();
+    ws.setup_goal_count = goals;
+    ws.setup_columns = cols_;
+    for (int g = 0; g < goals; ++g) {
+      ws.setup_goals[2 * g] = problem.goals[g].goal.effector;
+      ws.setup_goals[2 * g + 1] = problem.goals[g].level;
+    }
   }
 
   int columns() const { return cols_; }
+
+ private:
+  // ws holds the set-up for this tree's build and these goals' effectors and levels.
+  bool setup_holds() const {
+    if (tree_.serial() == 0 || ws_.setup_tree != tree_.serial() || ws_.setup_goal_count != problem_.goals.size)
+      return false;
+    for (int g = 0; g < problem_.goals.size; ++g)
+      if (ws_.setup_goals[2 * g] != problem_.goals[g].goal.effector ||
+          ws_.setup_goals[2 * g + 1] != problem_.goals[g].level)
+        return false;
+    return true;
+  }
+
+ public:
 
   // J at the pose ws holds (FK and DOF axes), scaled columns, rows in level order. Only a goal's
   // support columns are written, so an effector costs its path from the root, not the whole tree;
@@ -790,8 +817,10 @@ void make_trial(const Tree& tree, const SolverOptions& o, const double* params, 
     const int d = tree.dof_offset(j);
     if (!is_one_dof(tree.joint_type(j))) {
       glm::dvec3 s(step[d], step[d + 1], step[d + 2]);
-      const double len = glm::length(s);
-      if (o.max_step_angle > 0.0 && len > o.max_step_angle) s *= o.max_step_angle / len;
+      if (o.max_step_angle > 0.0) {  // the length only then (by default there is no cap)
+        const double len = glm::length(s);
+        if (len > o.max_step_angle) s *= o.max_step_angle / len;
+      }
       const glm::dvec3 r = so3::wrap_rotation_vector(glm::dvec3(params[d], params[d + 1], params[d + 2]) + s);
       trial[d] = r.x;
       trial[d + 1] = r.y;
@@ -814,7 +843,7 @@ bool any_pinned(const Tree& tree, const TreeWorkspace& ws, int columns, const do
 }  // namespace
 
 TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& o,
-                                TreeWorkspace& ws, double* params) {
+                                TreeWorkspace& ws, double* params, const TreeErrors& start) {
   TreeSolverStatus status;
   const int n = tree.dof_count();
   HierarchicalStep model(tree, problem, ws);
@@ -827,8 +856,11 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     fk_of_trial = p == ws.params_trial.data();
   };
 
-  // ws holds the FK of params (solve_tree() measured the start pose).
-  TreeErrors current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), residual, nullptr);
+  // ws holds the FK of params, solve_tree() measured it: its residual rows, in goal order, go
+  // to level order (the measure in level order sums each level's goals in the same order).
+  TreeErrors current = start;
+  for (int k = 0; k < problem.goals.size; ++k)
+    for (int i = 0; i < 3; ++i) residual[3 * k + i] = ws.residual_trial[3 * ws.goal_order[k] + i];
   double current_posture = posture_cost(tree, problem, params);
   tree_dof_axes(tree, params, ws, true);
   model.linearize();
@@ -850,6 +882,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   stuck::StallRule stall;  // by each accepted step's lexicographic gain (stalled_after_gain)
   // The best pose seen (lexicographically): escapes may leave it, the result returns to it.
   std::copy(params, params + n, ws.params_best.data());
+  ws.goal_error_best.head(problem.goals.size) = ws.goal_error.head(problem.goals.size);
   TreeErrors best = current;
   double best_posture = current_posture;
   const LevelCosts relaxed = met_costs(problem, o, kRelaxedTolerances);
@@ -867,7 +900,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     // a minimum no first-order step leaves, and neither is "down" for the hips above it.
     if (!tree_common::escape(tree, ws, model.columns(), status.escapes, params)) return false;
     forward(params);
-    current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), nullptr);
+    current = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual.data(), ws.goal_error.data());
     residual = ws.residual.data();
     current_posture = posture_cost(tree, problem, params);
     tree_dof_axes(tree, params, ws, true);
@@ -939,7 +972,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     if (trial_ok) {
       make_trial(tree, o, params, ws.step.data(), ws.params_trial.data());
       forward(ws.params_trial.data());
-      trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
+      trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(),
+                           ws.goal_error_trial.data());
       trial_posture = posture_cost(tree, problem, ws.params_trial.data());
       trial_ok = accept(trial, trial_posture);
       if (!trial_ok && (model.level_count() > 1 || !problem.posture.empty()) && !ws.deadline.spent() &&
@@ -948,7 +982,8 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         ws.dof_vec_b = ws.params_trial;
         make_trial(tree, o, ws.dof_vec_b.data(), ws.step.data(), ws.params_trial.data());
         forward(ws.params_trial.data());
-        trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(), nullptr);
+        trial = tree_measure(tree, problem, o, ws, ws.goal_order.data(), ws.residual_trial.data(),
+                           ws.goal_error_trial.data());
         trial_posture = posture_cost(tree, problem, ws.params_trial.data());
         trial_ok = accept(trial, trial_posture);
       }
@@ -972,11 +1007,13 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       const double stall_gain = lexicographic_gain(trial, current, gain);
       std::copy(ws.params_trial.data(), ws.params_trial.data() + n, params);
       std::swap(ws.residual, ws.residual_trial);
+      ws.goal_error.swap(ws.goal_error_trial);
       residual = ws.residual.data();
       current = trial;
       current_posture = trial_posture;
       if (better(current, current_posture, best, best_posture, strict)) {
         std::copy(params, params + n, ws.params_best.data());
+        ws.goal_error_best.head(problem.goals.size) = ws.goal_error.head(problem.goals.size);
         best = current;
         best_posture = current_posture;
       }
@@ -1035,6 +1072,10 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   const bool returns_best = better(best, best_posture, current, current_posture, strict);
   if (returns_best) std::copy(ws.params_best.data(), ws.params_best.data() + n, params);
   status.fk_of_params = fk_of_trial ? std::equal(params, params + n, ws.params_trial.data()) : !returns_best;
+  // current measures params, best params_best (in level order, as solve_tree() measures them).
+  status.measured = true;
+  status.errors = returns_best ? best : current;
+  if (returns_best) ws.goal_error.head(problem.goals.size) = ws.goal_error_best.head(problem.goals.size);
   return status;
 }
 

@@ -56,10 +56,17 @@ struct TreeSolverStatus {
   // ws holds the forward kinematics of the params returned: solve_tree() measures the result
   // without a pass of its own (a warm frame's last trial is usually the pose returned).
   bool fk_of_params = false;
+  // `errors` are the measure of the params returned, ws.goal_error their goals' errors (what
+  // tree_measure() gives there, bit for bit): solve_tree() measures the result no second time.
+  bool measured = false;
+  TreeErrors errors;
 };
 
+// `start`: tree_measure() of params (the FK ws holds) with the weighted residual rows in goal
+// order in ws.residual_trial and the goals' errors in ws.goal_error (solve_tree() measured them):
+// the solver takes them over instead of measuring the start pose again.
 TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
-                                TreeWorkspace& ws, double* params);
+                                TreeWorkspace& ws, double* params, const TreeErrors& start);
 // The weighted-sum solvers: priority levels as weight ratios (solvers/tree_common.hpp), no posture
 // for CCD and FABRIK; BFGS takes the posture as the lowest-weight term.
 TreeSolverStatus solve_tree_bfgs(const Tree& tree, const TreeProblem& problem, const SolverOptions& options,
