@@ -16,9 +16,9 @@
 //
 // Success per frame: every effector within 1 mm and 1 degree of its target, measured by this
 // program's own forward kinematics (body_model.cpp), not by the solver's report. Times: this
-// thread's CPU time (clock_gettime(CLOCK_THREAD_CPUTIME_ID)) around the solver's call for the
-// whole body (for the stack: all five chain solves and the forward kinematics that places each
-// chain's base); the wall clock (steady_clock) is recorded beside it.
+// thread's CPU time (ikchain::Deadline::thread_cpu_now_us: CLOCK_THREAD_CPUTIME_ID) around the
+// solver's call for the whole body (for the stack: all five chain solves and the forward kinematics
+// that places each chain's base); the wall clock (steady_clock) is recorded beside it.
 //
 // Usage: body_bench [--out DIR] [--quick] [--frames N] [--clips DIR] [--solver ID] [--start cold|warm]
 //   writes DIR/body.json (default build/bench) and prints one line per row; --solver and --start
@@ -29,13 +29,13 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
-#include <time.h>
 #include <vector>
 
 #include "bench_common.hpp"
 #include "body_model.hpp"
 #include "body_solvers.hpp"
 #include "bvh.hpp"
+#include "ikchain/deadline.hpp"
 #include "ikchain/options.hpp"
 
 namespace {
@@ -62,12 +62,6 @@ constexpr double kSuccessAngleDeg = 1.0;       // 1 degree
 constexpr double kLimitSlackRad = 1e-6;        // a joint this far past a range counts as a violation
 constexpr double kContactStepM = 1e-3;         // foot sliding: recorded foot moves < 1 mm per frame
 constexpr int kQuickFrames = 60;
-
-double thread_cpu_us() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
-}
 
 double angle_deg(const glm::dquat& a, const glm::dquat& b) {
   const double d = std::min(1.0, std::abs(glm::dot(a, b)));
@@ -137,11 +131,11 @@ Row run(const Replay& r, body::BodySolver& solver, bool warm) {
     }
     int iterations = 0;
     std::string note;
-    const double c0 = thread_cpu_us();
+    const double c0 = ikchain::Deadline::thread_cpu_now_us();
     const auto w0 = std::chrono::steady_clock::now();
     const bool ok = solver.solve(r.targets[f], params.data(), iterations, note);
     const auto w1 = std::chrono::steady_clock::now();
-    const double c1 = thread_cpu_us();
+    const double c1 = ikchain::Deadline::thread_cpu_now_us();
     if (!ok) {
       ++row.refused;
       if (row.note.empty()) row.note = note;

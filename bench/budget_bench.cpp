@@ -9,11 +9,12 @@
 // out of reach, tolerances no solve meets so that the budget is what stops it, restarts, warm and
 // cold starts; trees: random branched skeletons with goals at several priority levels, and the tests'
 // humanoid (17 joints, 43 DOF, 46 with its floating root) with pose goals on its six effectors), budgets
-// log-uniform in 20 us .. 2 ms. Each solve's thread CPU time (clock_gettime
-// CLOCK_THREAD_CPUTIME_ID: what the solve itself used, whatever else the machine runs) is compared
-// with 1.1 x budget + 20 us. The deadline itself runs on the steady clock, as in a game (the budget is
-// wall-clock time; under load it ends a solve before its CPU time reaches it), or with --cpu-clock
-// on the thread's CPU clock, so that a preempted time slice cannot hide an overrun.
+// log-uniform in 20 us .. 2 ms. Each solve's thread CPU time (Deadline::thread_cpu_now_us, the
+// safety cap's clock, CLOCK_THREAD_CPUTIME_ID: what the solve itself used, whatever else the machine
+// runs) is compared with 1.1 x budget + 20 us. The deadline itself runs on the steady clock, as in
+// a game (the budget is wall-clock time; under load it ends a solve before its CPU time reaches it),
+// or with --cpu-clock on the thread's CPU clock, so that a preempted time slice cannot hide an
+// overrun.
 //
 //   budget_bench [--seconds S] [--seed N] [--cpu-clock] [--case I] [--out DIR] [--list-over]
 // Prints one line per solver (solves, budget-bound ones, those stopped before their first iteration,
@@ -27,8 +28,6 @@
 // time went (the longest CPU time between two clock readings, the time after the last, the longest
 // charged stretch).
 // --list-over prints every solve over the bound (after its re-runs) with the same numbers.
-#include <time.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -41,6 +40,7 @@
 #include "../tests/core/tree_test_util.hpp"  // the humanoid the tree tests solve (make_humanoid)
 #include "bench_common.hpp"
 #include "joint_desc.hpp"  // ikchain::bench; the JSON helpers are ::bench (bench_common.hpp)
+#include "ikchain/deadline.hpp"
 #include "ikchain/ikchain.hpp"
 #include "ikchain/kinematics.hpp"
 #include "ikchain/tree.hpp"
@@ -53,17 +53,6 @@ namespace {
 constexpr double kRatio = 1.1;      // the bound: kRatio x budget + kSlackUs of CPU time
 constexpr double kSlackUs = 20.0;
 constexpr double kMinBudgetUs = 20.0, kMaxBudgetUs = 2000.0;
-
-double thread_cpu_us() {
-  timespec t;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return t.tv_sec * 1e6 + t.tv_nsec * 1e-3;
-}
-double wall_us() {
-  timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return t.tv_sec * 1e6 + t.tv_nsec * 1e-3;
-}
 
 using Rng = std::mt19937_64;
 double uniform(Rng& r, double a, double b) { return std::uniform_real_distribution<double>(a, b)(r); }
@@ -363,7 +352,7 @@ bool g_cpu_clock = false;
 // start to the first): where an overrun comes from, printed by --case.
 double g_last_reading = 0.0, g_longest_gap = 0.0;
 double cpu_clock_us() {
-  const double now = thread_cpu_us();
+  const double now = Deadline::thread_cpu_now_us();
   g_longest_gap = std::max(g_longest_gap, now - g_last_reading);
   return g_last_reading = now;
 }
@@ -399,18 +388,18 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     // work reads untouched), a few iterations.
     solve(k.kind, k.chain, Span<const Goal>(k.goals), warm_up_options(k.options), ws, p);
     p = k.start;
-    const double w0 = wall_us(), c0 = thread_cpu_us();
+    const double w0 = Deadline::steady_now_us(), c0 = Deadline::thread_cpu_now_us();
     g_last_reading = c0;
     g_longest_gap = 0.0;
     const SolveResult res = solve(k.kind, k.chain, Span<const Goal>(k.goals), k.options, ws, p);
-    out.cpu = thread_cpu_us() - c0;
+    out.cpu = Deadline::thread_cpu_now_us() - c0;
     out.tail_us = c0 + out.cpu - g_last_reading;
     out.longest_gap_us = g_longest_gap;
     out.longest_flops = ws.deadline.longest_stretch;
     out.setup_us = ws.deadline.setup_gap_us;
     out.flops_bound =
         Deadline::stretch_bound(k.chain.joint_count(), k.chain.dof_count(), 3 * static_cast<int>(k.goals.size()));
-    out.wall = wall_us() - w0;
+    out.wall = Deadline::steady_now_us() - w0;
     out.solver = to_string(k.kind);
     out.dofs = k.chain.dof_count();
     out.exhausted = res.budget_exhausted;
@@ -431,15 +420,15 @@ bool run_case(uint64_t seed, long index, Outcome& out) {
     Eigen::VectorXd p = k.start;
     solve_tree(k.kind, k.tree, problem, warm_up_options(k.options), ws, p);  // the warm-up, as for chains
     p = k.start;
-    const double w0 = wall_us(), c0 = thread_cpu_us();
+    const double w0 = Deadline::steady_now_us(), c0 = Deadline::thread_cpu_now_us();
     g_last_reading = c0;
     g_longest_gap = 0.0;
     const TreeSolveResult res = solve_tree(k.kind, k.tree, problem, k.options, ws, p);
-    out.cpu = thread_cpu_us() - c0;
+    out.cpu = Deadline::thread_cpu_now_us() - c0;
     out.tail_us = c0 + out.cpu - g_last_reading;
     out.longest_gap_us = g_longest_gap;
     out.setup_us = ws.deadline.setup_gap_us;
-    out.wall = wall_us() - w0;
+    out.wall = Deadline::steady_now_us() - w0;
     if (res.summary.reason == TerminationReason::kInvalidInput) return false;
     out.tree = true;
     out.solver = std::string("tree_") + to_string(k.kind);
@@ -516,11 +505,11 @@ int main(int argc, char** argv) {
   const int kBuckets = 4;
   const int bucket_top[kBuckets] = {30, 100, 300, 1 << 30};
   long bucket_solves[kBuckets] = {0}, bucket_over[kBuckets] = {0}, bucket_unmoved[kBuckets] = {0};
-  const double t_end = wall_us() + seconds * 1e6;
+  const double t_end = Deadline::steady_now_us() + seconds * 1e6;
   long index = 0, skipped = 0, raw_over = 0;
   long humanoid_solves = 0, humanoid_over = 0;
   const int kRetries = 2;
-  for (; wall_us() < t_end; ++index) {
+  for (; Deadline::steady_now_us() < t_end; ++index) {
     Outcome o;
     if (!run_case(seed, index, o)) {
       ++skipped;

@@ -28,7 +28,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -685,24 +684,19 @@ void run_multi_goal(bool quick) {
     Eigen::VectorXd params(chain.dof_count());
     std::vector<double> us, cpu_us;
     int converged = 0;
-    // Thread CPU time beside the wall clock: on a shared machine the wall clock's tail is preemption.
-    auto thread_cpu_us = [] {
-      timespec t;
-      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-      return t.tv_sec * 1e6 + t.tv_nsec * 1e-3;
-    };
     for (int pass = 0; pass < 2; ++pass) {  // the first pass warms up
       us.clear();
       cpu_us.clear();
       converged = 0;
       for (const std::vector<ikchain::Goal>& goals : problems) {
         params.setZero();
-        const double c0 = thread_cpu_us();
+        // Thread CPU time beside the wall clock: on a shared machine the wall clock's tail is preemption.
+        const double c0 = ikchain::Deadline::thread_cpu_now_us();
         const Clock::time_point t0 = Clock::now();
         const ikchain::SolveResult r = ikchain::solve(kind, chain, ikchain::Span<const ikchain::Goal>(goals), o, ws,
                                                       params);
         us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
-        cpu_us.push_back(thread_cpu_us() - c0);
+        cpu_us.push_back(ikchain::Deadline::thread_cpu_now_us() - c0);
         converged += r.reason == ikchain::TerminationReason::kConverged;
       }
     }

@@ -31,8 +31,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
-#include <time.h>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -47,11 +45,13 @@
 #include <kdl/jntarray.hpp>
 
 #include "bench_common.hpp"
+#include "ikchain/deadline.hpp"
 #include "robot_chain.hpp"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using ikchain::Deadline;  // thread_cpu_now_us: this thread's CPU time (us), the solves' measure
 using ikchain::SolverKind;
 using bench::json_number;
 using bench::json_string;
@@ -112,14 +112,6 @@ std::string json_counts(const std::map<std::string, int>& m) {
   std::string s = "{";
   for (const auto& kv : m) s += (s.size() > 1 ? ", " : "") + json_string(kv.first) + ": " + std::to_string(kv.second);
   return s + "}";
-}
-
-// This thread's CPU time (us): what a solve costs without the time other processes took the core
-// away (the machine is shared; wall-clock percentiles include that preemption).
-double thread_cpu_us() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
 }
 
 // ------------------------------------------------------------------------------------ an arm
@@ -277,11 +269,11 @@ Cell run_ours(Arm& arm, const SolverSpec& spec, bool full_pose, int restarts, do
     const ikchain::Span<const ikchain::Goal> span(goals.data(), full_pose ? 2 : 1);
     q = middle;
     o.restart_seed = static_cast<unsigned>(t + 1);
-    const double c0 = thread_cpu_us();
+    const double c0 = Deadline::thread_cpu_now_us();
     const Clock::time_point t0 = Clock::now();
     const ikchain::SolveResult r = ikchain::solve(spec.kind, arm.chain, span, o, ws, q);
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
-    const double cpu = thread_cpu_us() - c0;
+    const double cpu = Deadline::thread_cpu_now_us() - c0;
     const Judge j = judge(arm, full_pose, targets[t], q);
     // A failure's reason: the solver's own, or the judge's when the solver claimed convergence.
     const char* reason = ikchain::to_string(r.reason);
@@ -346,7 +338,7 @@ Cell run_kdl(Arm& arm, const SolverSpec& spec, bool full_pose, int restarts, con
     std::mt19937 rng(static_cast<unsigned>(t + 1));
     start = middle;
     int rc = 0, used = 0, iterations = 0;
-    const double c0 = thread_cpu_us();
+    const double c0 = Deadline::thread_cpu_now_us();
     const Clock::time_point t0 = Clock::now();
     for (;;) {
       for (int i = 0; i < n; ++i) q_init(i) = start[i];
@@ -358,7 +350,7 @@ Cell run_kdl(Arm& arm, const SolverSpec& spec, bool full_pose, int restarts, con
       robots::random_in_limits(arm.robot, rng, start);
     }
     const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
-    const double cpu = thread_cpu_us() - c0;
+    const double cpu = Deadline::thread_cpu_now_us() - c0;
     const Judge j = judge(arm, full_pose, targets[t], q);
     cell.add(us, cpu, spec.nr_jl ? NAN : iterations, used, kdl_reason(rc),
              j.ok ? nullptr : rc >= 0 ? j.why : kdl_reason(rc));
