@@ -218,20 +218,8 @@ TEST(Stuck, StraightLegWithKneeOnItsLimitReachesWithoutRestarts) {
 // hinges to the middle of their range, pinv, DLS, BFGS and FABRIK all stopped there. Now they
 // reach the target without restarts.
 TEST(Stuck, HingesPinnedOnTheirBoundsAreMovedOffThem) {
-  ChainBuilder b;
-  for (int i = 0; i < 3; ++i) {
-    JointDesc j;
-    j.type = JointType::kHinge;
-    j.axis = glm::dvec3(0, 0, 1);
-    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    j.limits.has_hinge_limit = true;
-    j.limits.hinge_min = -2.5;
-    j.limits.hinge_max = 2.5;
-    b.add_joint(j);
-  }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain c;
-  ASSERT_TRUE(b.build(c).ok());
+  const Chain c = test::make_planar_limb(std::vector<JointLimits>(3, test::hinge_range(-2.5, 2.5)));
+  ASSERT_EQ(c.joint_count(), 3);
   Workspace ws(c, 1);
   const std::vector<Goal> goals = {Goal::position(glm::dvec3(0.3, 1.0, 0.0))};
   Eigen::VectorXd pinned(3);
@@ -347,20 +335,9 @@ TEST(Stuck, EscapesAreBoundedReportedAndDeterministic) {
 // off-the-bounds move wraps the hinge); so does a tracking frame started within 25 % of L (a
 // shoulder at -3.05, the target's at 3.10).
 TEST(Stuck, AQueryCrossesAFullTurnBoundInsteadOfEscaping) {
-  ChainBuilder b;
-  for (int i = 0; i < 2; ++i) {
-    JointDesc j;
-    j.type = JointType::kHinge;
-    j.axis = glm::dvec3(0, 0, 1);
-    j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    j.limits.has_hinge_limit = true;
-    j.limits.hinge_min = i == 0 ? -3.14159265359 : 0.4;  // as URDFs write pi
-    j.limits.hinge_max = i == 0 ? 3.14159265359 : 0.6;
-    b.add_joint(j);
-  }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain c;
-  ASSERT_TRUE(b.build(c).ok());
+  const Chain c = test::make_planar_limb({test::hinge_range(-3.14159265359, 3.14159265359),  // as URDFs write pi
+                                          test::hinge_range(0.4, 0.6)});
+  ASSERT_EQ(c.joint_count(), 2);
   Workspace ws(c, 1);
   struct Case {
     const char* what;

@@ -1,6 +1,7 @@
 // Shared helpers for the core tests: chain generators and reachable targets made by forward
 // kinematics (the round-trip oracle, as in KDL's solvertest.cpp).
 #pragma once
+#include <cstddef>
 #include <random>
 #include <vector>
 
@@ -30,21 +31,25 @@ inline Chain make_hinge_chain(int n, double link = 1.0) {
   return c;
 }
 
-// n hinges about z (a planar limb), unit links along +Y, the tip 1 beyond the last joint. With
-// bend_max > 0 every hinge but the first bends one way only, [0, bend_max] rad: straight, each sits
-// on its limit.
-inline Chain make_planar_limb(int n, double bend_max = 0.0) {
+// A hinge limited to [min, max] rad.
+inline JointLimits hinge_range(double min, double max) {
+  JointLimits l;
+  l.has_hinge_limit = true;
+  l.hinge_min = min;
+  l.hinge_max = max;
+  return l;
+}
+
+// A planar limb: one hinge about z per entry of `limits` (JointLimits(): free), unit links along +Y,
+// the tip 1 beyond the last joint.
+inline Chain make_planar_limb(const std::vector<JointLimits>& limits) {
   ChainBuilder b;
-  for (int i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < limits.size(); ++i) {
     JointDesc j;
     j.type = JointType::kHinge;
     j.axis = glm::dvec3(0, 0, 1);
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, 1, 0);
-    if (i > 0 && bend_max > 0.0) {
-      j.limits.has_hinge_limit = true;
-      j.limits.hinge_min = 0.0;
-      j.limits.hinge_max = bend_max;
-    }
+    j.limits = limits[i];
     b.add_joint(j);
   }
   b.set_tip_offset(glm::dvec3(0, 1, 0));
@@ -52,6 +57,14 @@ inline Chain make_planar_limb(int n, double bend_max = 0.0) {
   const Message m = b.build(c).message;
   EXPECT_TRUE(m.empty()) << m.c_str();
   return c;
+}
+
+// n hinges about z (a planar limb). With bend_max > 0 every hinge but the first bends one way only,
+// [0, bend_max] rad: straight, each sits on its limit.
+inline Chain make_planar_limb(int n, double bend_max = 0.0) {
+  std::vector<JointLimits> limits(n);
+  for (int i = 1; i < n && bend_max > 0.0; ++i) limits[i] = hinge_range(0.0, bend_max);
+  return make_planar_limb(limits);
 }
 
 // n ball joints, bones along +Y of the given length (a Godot-style bone chain).
