@@ -70,6 +70,10 @@ constexpr double kChordGain = 0.99;
 // comparison refuses gets the second-order correction, then falls back to a fresh linearisation,
 // as every chord step does.
 constexpr int kMaxPostureChords = 3;
+// A posture step from a pose meeting every goal that moved no param by more than this (rad; m for
+// a translation) and was refused has nowhere left to go: no shorter one is tried (a still body's
+// tracking frame spent three more iterations on them).
+constexpr double kPostureSettledStep = 1e-5;
 // The shortest share of the posture step tried once every goal is met (each refused step quarters it).
 constexpr double kMinPostureGain = 1.0 / 64.0;
 // The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
@@ -199,6 +203,17 @@ class HierarchicalStep {
  public:
   HierarchicalStep(const Tree& tree, const TreeProblem& problem, TreeWorkspace& ws)
       : tree_(tree), problem_(problem), ws_(ws) {
+    // A settling solve (posture_iterations 0) wants the posture's settled pose, where no DOF's
+    // stiffness-weighted pull is left in the goals' null space: N S (posture - q) = 0. Scaling S
+    // leaves that pose where it is, so its steps take the stiffest DOF's whole way and the others
+    // their shares of it: at IKBody's 0.1 the settle took 10 % a step and stopped (its gain below
+    // 1e-3 of a cost the goals mostly hold) with centimetres left, which the next frames crept.
+    if (!problem.posture.empty() && problem.posture_iterations <= 0 && !problem.posture_stiffness.empty()) {
+      double stiffest = 0.0;
+      for (int d = 0; d < problem.posture_stiffness.size; ++d)
+        stiffest = std::max(stiffest, problem.posture_stiffness[d]);
+      if (stiffest > 0.0) stiffness_scale_ = 1.0 / stiffest;
+    }
     // Rows by level.
     int k = 0;
     for (int l = 1; l <= kMaxPriorityLevels; ++l) {
@@ -795,7 +810,9 @@ class HierarchicalStep {
   }
 
 
-  double stiffness(int d) const { return problem_.posture_stiffness.empty() ? 1.0 : problem_.posture_stiffness[d]; }
+  double stiffness(int d) const {
+    return problem_.posture_stiffness.empty() ? 1.0 : stiffness_scale_ * problem_.posture_stiffness[d];
+  }
   bool is_active(int d) const { return ws_.dof_column[d] >= 0; }
 
   const Tree& tree_;
@@ -805,6 +822,7 @@ class HierarchicalStep {
   int rows_ = 0, cols_ = 0;
   int served_ = 0;
   bool factored_posture_ = false;  // factor() grew F over every row (the posture's projector)
+  double stiffness_scale_ = 1.0;    // a settling solve's: 1 / the largest stiffness
   bool cut_ = false;
 };
 
@@ -969,6 +987,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     if (ws.deadline.hit || (!chorded && trial_ok && ws.deadline.spent())) break;
     TreeErrors trial;
     double trial_posture = 0.0;
+    const bool trial_computed = trial_ok;
     if (trial_ok) {
       make_trial(tree, o, params, ws.step.data(), ws.params_trial.data());
       forward(ws.params_trial.data());
@@ -988,6 +1007,10 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         trial_ok = accept(trial, trial_posture);
       }
     }
+    // The trial's largest param change (kPostureSettledStep); infinite when there is no trial.
+    double moved = trial_computed ? 0.0 : INFINITY;
+    if (trial_computed && !problem.posture.empty())
+      for (int d = 0; d < n; ++d) moved = std::max(moved, std::abs(ws.params_trial[d] - params[d]));
     if (!trial_ok && chorded) {
       // The chord step fell short: a full step from a fresh J (the damping stays).
       forward(params);
@@ -1048,8 +1071,10 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
     } else {
       if (current.all_met()) {
         // Only the posture was left. Its step drifts the goals by its square: a shorter one may keep
-        // them met; below kMinPostureGain it goes as far as the goals allow.
-        if (!problem.posture.empty() && posture_gain > kMinPostureGain && !posture_spent) {
+        // them met; below kMinPostureGain it goes as far as the goals allow. A step this short is
+        // refused because the posture has settled (a still body's tracking frame): none shorter helps.
+        if (!problem.posture.empty() && posture_gain > kMinPostureGain && !posture_spent &&
+            moved > kPostureSettledStep) {
           posture_gain *= 0.25;
           forward(params);  // ws holds the trial's FK
           continue;

@@ -264,7 +264,10 @@ func test_floating_root_crouches_with_feet_planted() -> void:
 		return
 	_check_feet_stay(skel, cap, rest, 1e-4 + FLOAT_SLACK)
 	check_le(_origin(skel, cap, "LeftHand").distance_to(low), 1e-3, "the hand reaches low (m)")
-	check(_origin(skel, cap, "Hips").y < hips_rest.y - 0.02, "the hips dropped: %.4f -> %.4f" % [hips_rest.y,
+	# Measured 0.750 -> 0.730 m; 0.722 while the first frame's posture settle stopped at a tenth of the
+	# way a step (test_first_frame_settles_so_still_targets_keep_the_body_still): the settled body
+	# reaches down with a little more spine and a little less crouch.
+	check(_origin(skel, cap, "Hips").y < hips_rest.y - 0.015, "the hips dropped: %.4f -> %.4f" % [hips_rest.y,
 			_origin(skel, cap, "Hips").y])
 
 
@@ -891,8 +894,10 @@ func test_set_up_humanoid_punches_without_leaning_into_straight_arms() -> void:
 # The first frame a body solves has no solution to go on from: it settles its posture (a tracking
 # frame takes one posture step of 10 %, IKBody.kPostureIterations). Left unsettled, the frames
 # after it kept moving toward the posture while the targets stood still. The set-up humanoid with
-# static targets far from its rest (hips 12 cm down, hands in front, head turned): measured, the
-# largest bone move on the next five frames 3.2 mm (without the settle 14.8 mm, then 8 mm a frame).
+# static targets far from its rest (hips 12 cm down, hands in front, head turned). Measured, the
+# largest bone move a frame over the next 30 frames: 1.2 mm (a settle at a tenth of the way a step,
+# before its steps took the stiffest joint's whole way: 3.2 mm, then 1.4 mm a frame for a second;
+# no settle: 14.8 mm, then 8 mm a frame).
 func test_first_frame_settles_so_still_targets_keep_the_body_still() -> void:
 	var body := _set_up_humanoid()
 	var skel := body.get_parent() as Skeleton3D
@@ -908,13 +913,13 @@ func test_first_frame_settles_so_still_targets_keep_the_body_still() -> void:
 		e.target = body.get_path_to(held[e.bone_name])
 	var previous := []
 	var worst := 0.0
-	for frame in 6:
+	for frame in 30:
 		var cap := await _capture(skel, body)
 		if not check(not cap.is_empty(), "frame %d: skeleton_updated came" % frame):
 			return
 		check(body.is_last_level_met(1) and body.is_last_level_met(2), "frame %d: feet, hips and hands met" % frame)
 		worst = maxf(worst, _largest_move(cap, previous))
-	check_le(worst, 0.005, "the largest bone move a frame once the first has settled (m)")
+	check_le(worst, 0.002, "the largest bone move a frame once the first has settled (m)")
 
 
 # A non-finite bone pose coming in (a broken animation): one error naming the bone, nothing written
