@@ -8,12 +8,8 @@ import { CSS2DObject, CSS2DRenderer } from 'three/examples/jsm/renderers/CSS2DRe
 
 import type { IKCore, Quat, TerminationReason, Tree, Vec3 } from './ikchain.js';
 import { SolverKind } from './ikchain.js';
-import { BODY_GOALS, CRATE_SIZE, E, HIPS_SIDE, HUMANOID, J, SOLE_BELOW_ANKLE, animatedTargets, bodyGoals, relaxedPose, rotate } from './humanoid.js';
+import { BODY_GOALS, BODY_OPTIONS, BODY_POSTURE_STIFFNESS, CRATE_SIZE, E, HIPS_SIDE, HUMANOID, J, SOLE_BELOW_ANKLE, animatedTargets, bodyGoals, relaxedPose, rotate } from './humanoid.js';
 
-export const BODY_POSITION_TOLERANCE = 1e-4; // m
-export const BODY_ORIENTATION_TOLERANCE = 1e-3; // rad
-export const BODY_MAX_ITERATIONS = 60;
-const POSTURE_STIFFNESS = 0.1;
 const HISTORY = 300; // frames kept for the live charts
 
 export const LEVEL_COLOR = { 1: 0x6fd38c, 2: 0xf7a24f, 3: 0x8ab4f8 } as const;
@@ -188,9 +184,8 @@ export class BodyView {
     this.body = core.createTree(HUMANOID);
     const pose = relaxedPose();
     this.body.setParams(pose);
-    this.body.setPosture(pose, POSTURE_STIFFNESS);
-    this.body.setOptions({ maxIterations: BODY_MAX_ITERATIONS, positionTolerance: BODY_POSITION_TOLERANCE,
-                           orientationTolerance: BODY_ORIENTATION_TOLERANCE, warmStart: true, postureIterations: 4 });
+    this.body.setPosture(pose, BODY_POSTURE_STIFFNESS);
+    this.body.setOptions(BODY_OPTIONS);
     this.placeAnimated();
     const g = this.goalValues();
     const head = this.body.frames().effectors[E.head];

@@ -4,7 +4,7 @@
 // on +X), the ankles 8 cm above the soles (the profile puts them at the floor), and the rig
 // IKBody.setup_humanoid() makes in Godot: knees hinges 0..165°, elbows 0..150°, spine bones 30° cones
 // that bend reluctantly (motion cost 2), a floating root so the hips can crouch.
-import type { Quat, TreeGoal, TreeJointSpec, TreeSpec, Vec3 } from './ikchain.js';
+import type { Quat, TreeGoal, TreeJointSpec, TreeOptions, TreeSpec, Vec3 } from './ikchain.js';
 
 const deg = Math.PI / 180;
 
@@ -82,6 +82,17 @@ export function dofOffsets(spec: TreeSpec): number[] {
 export function dofCount(spec: TreeSpec): number {
   return spec.joints.reduce((n, j) => n + (j.type === 'ball' ? 3 : 1), spec.floatingRoot ? 3 : 0);
 }
+
+// The body view's solve, every frame from the last one's pose (bodyView.ts; the unit tests and
+// tests/bench/body_frames.mjs take it too): 60 iterations at most, 0.1 mm and 1e-3 rad, and one
+// posture step a frame as IKBody takes (kPostureIterations; the core's
+// TreeProblem::posture_iterations): it rides on the frame's first step. The posture's stiffness is
+// a frame's share of the way back, so 4 steps leave the body where 1 does (the joints 6 mm apart on
+// average) at 5 iterations a frame instead of 2 (docs/web-demo.md, "Speed: the full body").
+export const BODY_OPTIONS = {
+  maxIterations: 60, positionTolerance: 1e-4, orientationTolerance: 1e-3, warmStart: true, postureIterations: 1,
+} as const satisfies TreeOptions;
+export const BODY_POSTURE_STIFFNESS = 0.1;
 
 // The posture (and the starting pose): standing, arms hanging 75° down from the T-pose, elbows
 // and knees a little bent (a straight knee sits on its limit).

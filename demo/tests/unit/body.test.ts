@@ -6,7 +6,7 @@ import assert from 'node:assert/strict';
 
 import { IKError, SolverKind, loadIKCore } from '../../src/ikchain.js';
 import type { Tree, Vec3 } from '../../src/ikchain.js';
-import { BODY_GOALS, CYCLE_S, E, HIPS_SIDE, HUMANOID, J, animatedTargets, bodyGoals, dofCount, relaxedPose, rotate } from '../../src/humanoid.js';
+import { BODY_GOALS, BODY_OPTIONS, BODY_POSTURE_STIFFNESS, CYCLE_S, E, HIPS_SIDE, HUMANOID, J, animatedTargets, bodyGoals, dofCount, relaxedPose, rotate } from '../../src/humanoid.js';
 import type { BodyTargets } from '../../src/humanoid.js';
 
 const core = await loadIKCore();
@@ -16,8 +16,8 @@ function makeBody(): Tree {
   const body = core.createTree(HUMANOID);
   const pose = relaxedPose();
   body.setParams(pose);
-  body.setPosture(pose, 0.1);
-  body.setOptions({ maxIterations: 60, positionTolerance: 1e-4, orientationTolerance: 1e-3, postureIterations: 4, timeCapUsec: 0 });
+  body.setPosture(pose, BODY_POSTURE_STIFFNESS);
+  body.setOptions({ ...BODY_OPTIONS, timeCapUsec: 0 }); // the page's options
   return body;
 }
 
