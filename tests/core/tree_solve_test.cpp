@@ -355,7 +355,7 @@ TEST(TreeSolve, ASettlingPostureEndsWhereItsStiffnessScaleDoesNotMatter) {
   const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
   std::vector<double> firm(size_t(t.dof_count()), 1.0);
   for (int e : {H::kLElbow, H::kRElbow})
-    for (int d = 0; d < 3; ++d) firm[size_t(t.dof_offset(e) + d)] = 0.0;
+    for (int d = 0; d < t.dof_count_of(e); ++d) firm[size_t(t.dof_offset(e) + d)] = 0.0;
   std::vector<double> soft = firm;
   for (double& s : soft) s *= 0.1;
   std::mt19937 rng(12);
