@@ -33,7 +33,8 @@ struct SolveResult {
   double final_orientation_error = 0.0;
   double elapsed_us = 0.0;  // wall-clock time of the whole solve call (microseconds)
   // True when the solver stopped because SolverOptions::time_budget_usec ran out (reason is then
-  // kMaxIterations, or kUnreachable when the pose it stopped at is provably a best reach).
+  // kMaxIterations, or kUnreachable when the pose it stopped at is provably a best reach; for a
+  // tree with a posture task, kConverged when every goal was met and the posture's settle was cut).
   bool budget_exhausted = false;
   int restarts = 0;  // restarts run (SolverOptions::max_restarts); iterations include theirs
   // Escapes from stuck poses inside the solver runs (at most 5 per run, 21 for a query, restarts' included;

@@ -152,6 +152,9 @@ class IKBody : public IKModifier {
   std::vector<int> look_goals_;      // per frame: the goals whose look is spread (capacity: slots)
   TreeWorkspace workspace_;
   bool have_last_ = false;
+  // The first frame's posture settle has ended (not cut by time_budget_usec: the frames after a
+  // cut one settle on from where it stopped, instead of creeping the rest a share a frame).
+  bool settled_ = false;
 
   std::vector<std::string> runtime_reported_;
   int reports_this_frame_ = 0;

@@ -341,56 +341,35 @@ TEST(TreeSolve, ACreepAtLevelOneIsSeenWhileALowerLevelSwings) {
   EXPECT_EQ(converged, trials);
 }
 
-// A settling solve (posture_iterations 0: IKBody's first frame) ends at the posture's settled pose,
-// which the stiffnesses' common scale does not move: IKBody's 0.1 (0 on the elbows) settles where
-// 1 (0 on the elbows) does. It used to take a tenth of the way a step and stop on its gain against
-// the whole posture cost, most of which the goals hold, with centimetres left; the tracking frames
-// after it crept them (the set-up humanoid in Godot: 3.2 mm, then 1.4 mm a frame, for a second).
-TEST(TreeSolve, ASettlingPostureEndsWhereItsStiffnessScaleDoesNotMatter) {
+// A settling solve (posture_iterations 0: IKBody's first frame) goes the whole way the goals leave
+// toward the posture, however soft: IKBody's stiffness 0.1 settles the right arm, which no goal
+// moves, onto its preferred pose. It used to take a tenth of the way a step and stop once a step's
+// gain fell below 1e-3 of the whole posture cost, most of which the left hand's goal holds, with
+// the arm still turned; the tracking frames after it crept the rest (the set-up humanoid in Godot:
+// 3.2 mm, then 1.4 mm a frame, for a second).
+TEST(TreeSolve, ASettlingPostureGoesTheWholeWayTheGoalsLeave) {
   using H = Humanoid;
-  const Tree t = test::make_humanoid(true);
-  TreeWorkspace ws(t, 12);
+  const Tree t = test::make_humanoid(false);
+  std::mt19937 rng(12);
+  TreeWorkspace ws(t, 4);
   SolverOptions o;
   o.time_cap_usec = 0.0;  // iteration counts, not the machine's load
   const Eigen::VectorXd rest = Eigen::VectorXd::Zero(t.dof_count());
-  std::vector<double> firm(size_t(t.dof_count()), 1.0);
-  for (int e : {H::kLElbow, H::kRElbow})
-    for (int d = 0; d < t.dof_count_of(e); ++d) firm[size_t(t.dof_offset(e) + d)] = 0.0;
-  std::vector<double> soft = firm;
-  for (double& s : soft) s *= 0.1;
-  std::mt19937 rng(12);
+  const std::vector<double> stiffness(size_t(t.dof_count()), 0.1);  // IKBody's
+  const int arm_begin = t.dof_offset(H::kRShoulder), arm_end = t.dof_offset(H::kRWrist) + t.dof_count_of(H::kRWrist);
   for (int trial = 0; trial < 10; ++trial) {
-    // Targets: the hips lowered and turned a little, the knees bent, the arms reaching forward.
-    Eigen::VectorXd target = 0.15 * test::random_tree_params(t, rng, 1.0);
-    target[1] -= 0.08;
-    target[t.dof_offset(H::kLKnee)] += 0.5;
-    target[t.dof_offset(H::kRKnee)] += 0.5;
-    target[t.dof_offset(H::kLShoulder) + 2] += 0.6;
-    target[t.dof_offset(H::kRShoulder) + 2] -= 0.6;
-    target[t.dof_offset(H::kLElbow)] += 0.7;
-    target[t.dof_offset(H::kRElbow)] += 0.7;
-    project_tree_to_limits(t, target.data());
-    tree_forward_kinematics(t, target.data(), ws);
-    std::vector<TreeGoal> goals;
-    for (int e : {H::kHipsEffector, H::kLFoot, H::kRFoot}) {
-      const double weight = (e == H::kHipsEffector ? 0.1 : 1.0);
-      goals.push_back({Goal::position(tree_effector_position(t, ws, e), e, weight), 1});
-      goals.push_back({Goal::orientation(tree_effector_orientation(t, ws, e), e, weight * t.lever(e) * t.lever(e)), 1});
-    }
-    for (int e : {H::kLHand, H::kRHand}) goals.push_back({Goal::position(tree_effector_position(t, ws, e), e), 2});
+    Eigen::VectorXd start = test::random_tree_params(t, rng, 0.8);
+    const std::vector<TreeGoal> goals = pose_goals_at(t, start, {Humanoid::kLHand}, 1, false);
     TreeProblem p;
     p.goals = goals;
     p.posture = Span<const double>(rest.data(), static_cast<int>(rest.size()));
-    Eigen::VectorXd settled_firm = rest, settled_soft = rest;
-    p.posture_stiffness = Span<const double>(firm.data(), static_cast<int>(firm.size()));
-    const TreeSolveResult r_firm = solve_tree(SolverKind::kDLS, t, p, o, ws, settled_firm);
-    p.posture_stiffness = Span<const double>(soft.data(), static_cast<int>(soft.size()));
-    const TreeSolveResult r_soft = solve_tree(SolverKind::kDLS, t, p, o, ws, settled_soft);
-    ASSERT_EQ(r_firm.summary.reason, TerminationReason::kConverged) << "trial " << trial;
-    ASSERT_EQ(r_soft.summary.reason, TerminationReason::kConverged) << "trial " << trial;
-    EXPECT_LE((settled_soft - settled_firm).cwiseAbs().maxCoeff(), 1e-4)
-        << "trial " << trial << ": the settled poses differ (rad, m)";
-    EXPECT_LT((settled_soft - rest).norm(), (target - rest).norm()) << "trial " << trial << ": the posture was followed";
+    p.posture_stiffness = Span<const double>(stiffness.data(), static_cast<int>(stiffness.size()));
+    Eigen::VectorXd q = start;
+    const TreeSolveResult r = solve_tree(SolverKind::kDLS, t, p, o, ws, q);
+    ASSERT_EQ(r.summary.reason, TerminationReason::kConverged) << "trial " << trial;
+    const double arm_left = (q - rest).segment(arm_begin, arm_end - arm_begin).cwiseAbs().maxCoeff();
+    EXPECT_LE(arm_left, 1e-3) << "trial " << trial << ": the free arm's largest param left to its posture (rad), from "
+                              << (start - rest).segment(arm_begin, arm_end - arm_begin).cwiseAbs().maxCoeff();
   }
 }
 

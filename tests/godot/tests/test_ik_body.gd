@@ -264,10 +264,10 @@ func test_floating_root_crouches_with_feet_planted() -> void:
 		return
 	_check_feet_stay(skel, cap, rest, 1e-4 + FLOAT_SLACK)
 	check_le(_origin(skel, cap, "LeftHand").distance_to(low), 1e-3, "the hand reaches low (m)")
-	# Measured 0.750 -> 0.730 m; 0.722 while the first frame's posture settle stopped at a tenth of the
-	# way a step (test_first_frame_settles_so_still_targets_keep_the_body_still): the settled body
-	# reaches down with a little more spine and a little less crouch.
-	check(_origin(skel, cap, "Hips").y < hips_rest.y - 0.015, "the hips dropped: %.4f -> %.4f" % [hips_rest.y,
+	# Measured 0.750 -> 0.734 m; 0.722 while the first frame's posture settle stopped with centimetres
+	# left (test_first_frame_settles_so_still_targets_keep_the_body_still): the settled body reaches
+	# down with a little more spine and a little less crouch, nearer its upright posture.
+	check(_origin(skel, cap, "Hips").y < hips_rest.y - 0.01, "the hips dropped: %.4f -> %.4f" % [hips_rest.y,
 			_origin(skel, cap, "Hips").y])
 
 
@@ -894,13 +894,27 @@ func test_set_up_humanoid_punches_without_leaning_into_straight_arms() -> void:
 # The first frame a body solves has no solution to go on from: it settles its posture (a tracking
 # frame takes one posture step of 10 %, IKBody.kPostureIterations). Left unsettled, the frames
 # after it kept moving toward the posture while the targets stood still. The set-up humanoid with
-# static targets far from its rest (hips 12 cm down, hands in front, head turned). Measured, the
-# largest bone move a frame over the next 30 frames: 1.2 mm (a settle at a tenth of the way a step,
-# before its steps took the stiffest joint's whole way: 3.2 mm, then 1.4 mm a frame for a second;
-# no settle: 14.8 mm, then 8 mm a frame).
+# static targets far from its rest (_hold_still_targets). Measured, the largest bone move a frame
+# over the next 30 frames: 0.13 mm, then 0.06 mm decaying (a settle at a tenth of the way a step that stopped on its gain
+# against the whole posture cost: 3.2 mm, then 1.4 mm a frame for a second; no settle: 14.8 mm,
+# then 8 mm a frame).
 func test_first_frame_settles_so_still_targets_keep_the_body_still() -> void:
 	var body := _set_up_humanoid()
 	var skel := body.get_parent() as Skeleton3D
+	_hold_still_targets(skel, body)
+	var previous := []
+	var worst := 0.0
+	for frame in 30:
+		var cap := await _capture(skel, body)
+		if not check(not cap.is_empty(), "frame %d: skeleton_updated came" % frame):
+			return
+		check(body.is_last_level_met(1) and body.is_last_level_met(2), "frame %d: feet, hips and hands met" % frame)
+		worst = maxf(worst, _largest_move(cap, previous))
+	check_le(worst, 0.0005, "the largest bone move a frame once the first has settled (m)")
+
+
+# Static targets far from the set-up humanoid's rest: hips 12 cm down, hands in front, head turned.
+func _hold_still_targets(skel: Skeleton3D, body: IKBody) -> void:
 	var held := {}
 	for bone in ["Hips", "LeftFoot", "RightFoot", "Head"]:
 		held[bone] = _target("T" + bone, skel.get_bone_global_pose(skel.find_bone(bone)))
@@ -911,15 +925,32 @@ func test_first_frame_settles_so_still_targets_keep_the_body_still() -> void:
 	held["Head"].basis = Basis(Vector3.UP, 0.5) * Basis(Vector3.RIGHT, 0.3)
 	for e in body.effectors:
 		e.target = body.get_path_to(held[e.bone_name])
+
+
+# A time budget that cuts the first frame's settle: the frames after it settle on from where it
+# stopped (posture_iterations 0 until one ends unhurried), then keep still. They used to take one
+# posture step of 10 % a frame from there, and crept 8 mm a frame for as long as measured. 100 us
+# cuts the settle (about 40 iterations) here; the last 30 of 90 frames are checked, so a slower
+# machine (or the ASan build) that needs more frames to finish it still passes.
+func test_a_settle_cut_by_the_time_budget_goes_on_in_the_next_frames() -> void:
+	var body := _set_up_humanoid()
+	var skel := body.get_parent() as Skeleton3D
+	body.time_budget_usec = 100.0
+	_hold_still_targets(skel, body)
 	var previous := []
 	var worst := 0.0
-	for frame in 30:
+	var cut := false
+	for frame in 90:
 		var cap := await _capture(skel, body)
 		if not check(not cap.is_empty(), "frame %d: skeleton_updated came" % frame):
 			return
-		check(body.is_last_level_met(1) and body.is_last_level_met(2), "frame %d: feet, hips and hands met" % frame)
-		worst = maxf(worst, _largest_move(cap, previous))
-	check_le(worst, 0.002, "the largest bone move a frame once the first has settled (m)")
+		cut = cut or cap["result"]["budget_exhausted"]
+		var moved := _largest_move(cap, previous)
+		if frame >= 60:
+			check(body.is_last_level_met(1) and body.is_last_level_met(2), "frame %d: feet, hips and hands met" % frame)
+			worst = maxf(worst, moved)
+	check(cut, "the budget cut a frame (else this case proves nothing)")
+	check_le(worst, 0.0005, "the largest bone move a frame over the last 30 frames (m)")
 
 
 # A non-finite bone pose coming in (a broken animation): one error naming the bone, nothing written
