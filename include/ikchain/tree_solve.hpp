@@ -42,11 +42,10 @@ struct TreeProblem {
   Span<const double> posture;
   Span<const double> posture_stiffness;
   // The posture converges linearly (a share of the remaining distance a step): a solve that waits
-  // for it to settle (posture_iterations 0) spends most of its iterations on it. Such a solve
-  // scales the stiffnesses so the largest is 1 once the goals are near (the settled pose, where no
-  // stiffness-weighted pull is left in the goals' null space, is the same at any common scale) and
-  // has settled when a posture step from a pose meeting every goal moves no param by more than
-  // 1e-3 (rad, or m). A DOF no goal depends on takes its whole share every posture step.
+  // for it to settle (its gain below 1e-3; posture_iterations 0) spends most of its iterations on
+  // it. Such a solve scales the stiffnesses so the largest is 1 once the goals are near (the
+  // settled pose, where no stiffness-weighted pull is left in the goals' null space, is the same at
+  // any common scale). A DOF no goal depends on takes its whole share every posture step.
   // A tracking caller, whose next frame starts from this one's pose and goes on toward the
   // posture, can give it this many steps instead: the posture rides on the solve's steps, and
   // once this many of them have carried it from a pose near the goals (every level within 100
