@@ -8,7 +8,7 @@ import { CSS2DObject, CSS2DRenderer } from 'three/examples/jsm/renderers/CSS2DRe
 
 import type { IKCore, Quat, TerminationReason, Tree, Vec3 } from './ikchain.js';
 import { SolverKind } from './ikchain.js';
-import { BODY_GOALS, BODY_OPTIONS, BODY_POSTURE_STIFFNESS, CRATE_SIZE, E, HIPS_SIDE, HUMANOID, J, SOLE_BELOW_ANKLE, animatedTargets, bodyGoals, relaxedPose, rotate } from './humanoid.js';
+import { BODY_GOALS, BODY_OPTIONS, BODY_POSTURE_STIFFNESS, CRATE_SIZE, E, HUMANOID, J, SOLE_BELOW_ANKLE, animatedTargets, bodyGoals, relaxedPose, setBodyGoalValues } from './humanoid.js';
 
 const HISTORY = 300; // frames kept for the live charts
 
@@ -278,15 +278,7 @@ export class BodyView {
     const head = 7 * HUMANOID.joints.length + 3 * E.head;
     const g = this.goalValues();
     const b = this.body;
-    b.setGoalPosition(0, g.feet[0]);
-    b.setGoalOrientation(1, g.feetRotation);
-    b.setGoalPosition(2, g.feet[1]);
-    b.setGoalOrientation(3, g.feetRotation);
-    b.setAimDirection(4, rotate(g.hipsRotation, HIPS_SIDE));
-    b.setGoalPosition(5, g.hands[0]);
-    b.setGoalPosition(6, g.hands[1]);
-    b.setAimDirection(7, [g.look[0] - f0[head], g.look[1] - f0[head + 1], g.look[2] - f0[head + 2]]);
-    b.setGoalPosition(8, g.hips);
+    setBodyGoalValues(b, g, [g.look[0] - f0[head], g.look[1] - f0[head + 1], g.look[2] - f0[head + 2]]);
     const t0 = performance.now();
     this.lastReason = b.solveFast(SolverKind.DLS);
     const t1 = performance.now();

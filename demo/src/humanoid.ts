@@ -4,7 +4,7 @@
 // on +X), the ankles 8 cm above the soles (the profile puts them at the floor), and the rig
 // IKBody.setup_humanoid() makes in Godot: knees hinges 0..165°, elbows 0..150°, spine bones 30° cones
 // that bend reluctantly (motion cost 2), a floating root so the hips can crouch.
-import type { Quat, TreeGoal, TreeJointSpec, TreeOptions, TreeSpec, Vec3 } from './ikchain.js';
+import type { Quat, Tree, TreeGoal, TreeJointSpec, TreeOptions, TreeSpec, Vec3 } from './ikchain.js';
 
 const deg = Math.PI / 180;
 
@@ -151,6 +151,21 @@ export function bodyGoals(feet: [Vec3, Vec3], feetRotation: Quat, hipsRotation: 
     if (g.kind === 'orientation') return { kind: 'orientation', quaternion: v[i] as Quat, effector: g.effector, level: g.level };
     return { kind: 'aim', axis: g.effector === E.hips ? HIPS_SIDE : HEAD_FORWARD, direction: v[i] as Vec3, effector: g.effector, level: g.level };
   });
+}
+
+// A frame's goal values, written into a body whose goals bodyGoals() made (BODY_GOALS' order)
+// without rebuilding them: what the page does every frame. `look` as bodyGoals()'.
+export function setBodyGoalValues(body: Tree, g: Pick<BodyTargets, 'feet' | 'feetRotation' | 'hipsRotation' | 'hands' | 'hips'>,
+                                  look: Vec3): void {
+  body.setGoalPosition(0, g.feet[0]);
+  body.setGoalOrientation(1, g.feetRotation);
+  body.setGoalPosition(2, g.feet[1]);
+  body.setGoalOrientation(3, g.feetRotation);
+  body.setAimDirection(4, rotate(g.hipsRotation, HIPS_SIDE));
+  body.setGoalPosition(5, g.hands[0]);
+  body.setGoalPosition(6, g.hands[1]);
+  body.setAimDirection(7, look);
+  body.setGoalPosition(8, g.hips);
 }
 
 // --- The animated targets (the view's default; the unit tests track them too)

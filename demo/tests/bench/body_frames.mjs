@@ -32,7 +32,7 @@ if (tsc.status !== 0) process.exit(1);
 mkdirSync(path.join(demoDir, '.test-out/src/wasm'), { recursive: true });
 copyFileSync(path.join(demoDir, 'src/wasm/ikchain_wasm.mjs'), path.join(demoDir, '.test-out/src/wasm/ikchain_wasm.mjs'));
 const { SolverKind, loadIKCore } = await import(path.join(demoDir, '.test-out/src/ikchain.js'));
-const { BODY_OPTIONS, BODY_POSTURE_STIFFNESS, E, HIPS_SIDE, HUMANOID, animatedTargets, bodyGoals, relaxedPose, rotate } =
+const { BODY_OPTIONS, BODY_POSTURE_STIFFNESS, E, HUMANOID, animatedTargets, bodyGoals, relaxedPose, setBodyGoalValues } =
   await import(path.join(demoDir, '.test-out/src/humanoid.js'));
 const postureIterations = opt('--posture-iterations', BODY_OPTIONS.postureIterations);
 
@@ -78,15 +78,7 @@ for (let k = 0; k <= frames; ++k) {
   // What BodyView.update does before its solve.
   const a = animatedTargets(k / fps);
   const f0 = body.framesArray();
-  body.setGoalPosition(0, a.feet[0]);
-  body.setGoalOrientation(1, a.feetRotation);
-  body.setGoalPosition(2, a.feet[1]);
-  body.setGoalOrientation(3, a.feetRotation);
-  body.setAimDirection(4, rotate(a.hipsRotation, HIPS_SIDE));
-  body.setGoalPosition(5, a.hands[0]);
-  body.setGoalPosition(6, a.hands[1]);
-  body.setAimDirection(7, [a.look[0] - f0[head], a.look[1] - f0[head + 1], a.look[2] - f0[head + 2]]);
-  body.setGoalPosition(8, a.hips);
+  setBodyGoalValues(body, a, [a.look[0] - f0[head], a.look[1] - f0[head + 1], a.look[2] - f0[head + 2]]);
   const t0 = performance.now();
   body.solveFast(SolverKind.DLS);
   const t1 = performance.now();

@@ -6,7 +6,7 @@ import assert from 'node:assert/strict';
 
 import { IKError, SolverKind, loadIKCore } from '../../src/ikchain.js';
 import type { Tree, Vec3 } from '../../src/ikchain.js';
-import { BODY_GOALS, BODY_OPTIONS, BODY_POSTURE_STIFFNESS, CYCLE_S, E, HIPS_SIDE, HUMANOID, J, animatedTargets, bodyGoals, dofCount, relaxedPose, rotate } from '../../src/humanoid.js';
+import { BODY_GOALS, BODY_OPTIONS, BODY_POSTURE_STIFFNESS, CYCLE_S, E, HUMANOID, J, animatedTargets, bodyGoals, dofCount, relaxedPose, setBodyGoalValues } from '../../src/humanoid.js';
 import type { BodyTargets } from '../../src/humanoid.js';
 
 const core = await loadIKCore();
@@ -55,15 +55,7 @@ test('tracking the animated targets over two cycles: every level 1 and 2 goal me
   for (let k = 0; k <= frames; ++k) {
     const t = k / 30;
     const a = animatedTargets(t);
-    body.setGoalPosition(0, a.feet[0]);
-    body.setGoalOrientation(1, a.feetRotation);
-    body.setGoalPosition(2, a.feet[1]);
-    body.setGoalOrientation(3, a.feetRotation);
-    body.setAimDirection(4, rotate(a.hipsRotation, HIPS_SIDE));
-    body.setGoalPosition(5, a.hands[0]);
-    body.setGoalPosition(6, a.hands[1]);
-    body.setAimDirection(7, lookDirection(body, a.look));
-    body.setGoalPosition(8, a.hips);
+    setBodyGoalValues(body, a, lookDirection(body, a.look));
     const reason = body.solveFast(SolverKind.DLS);
     assert.notEqual(reason, 'invalid_input');
     const errors = body.goalErrors();
