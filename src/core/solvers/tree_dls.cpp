@@ -1014,10 +1014,6 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         trial_ok = accept(trial, trial_posture);
       }
     }
-    // The trial's largest param change (kPostureSettledStep); infinite when there is no trial.
-    double moved = trial_computed ? 0.0 : INFINITY;
-    if (trial_computed && !problem.posture.empty())
-      for (int d = 0; d < n; ++d) moved = std::max(moved, std::abs(ws.params_trial[d] - params[d]));
     if (!trial_ok && chorded) {
       // The chord step fell short: a full step from a fresh J (the damping stays).
       forward(params);
@@ -1084,6 +1080,11 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         // Only the posture was left. Its step drifts the goals by its square: a shorter one may keep
         // them met; below kMinPostureGain it goes as far as the goals allow; a short one
         // (kPostureSettledStep) finds it settled.
+        // The refused trial's largest param change (params_trial still holds it); infinite when
+        // there was no trial.
+        double moved = trial_computed ? 0.0 : INFINITY;
+        if (trial_computed)
+          for (int d = 0; d < n; ++d) moved = std::max(moved, std::abs(ws.params_trial[d] - params[d]));
         if (!problem.posture.empty() && posture_gain > kMinPostureGain && !posture_spent &&
             moved > kPostureSettledStep) {
           posture_gain *= 0.25;
