@@ -9,7 +9,9 @@
 //
 // Rows: clip x solver x start. Solvers: `chain_stack_dls` (the hips placed at the recording, then
 // one ikchain::solve() per chain: spine -> head, each arm from the collar, each leg; see
-// chain_stack.cpp) and, once the core has it, every tree solver (solve_tree, body_tree.cpp).
+// chain_stack.cpp) and, once the core has it, every tree solver (solve_tree, body_tree.cpp) with the
+// rig of body_model.hpp (the trunk's motion cost, a neutral posture), and DLS again without the
+// posture (`dls_no_posture`).
 // Starts: "cold" = every frame from the rest pose (every joint at rest, the root at the recorded
 // hips: both the stack and the tree start there) and "warm" = from the previous frame's result
 // (the first frame from the rest pose), as a game does.
@@ -380,6 +382,10 @@ int main(int argc, char** argv) {
           "previous frame's result\"";
   meta += ", \"options\": \"SolverOptions defaults: max_iterations 100, position_tolerance 1e-5 m, "
           "orientation_tolerance 1e-4 rad, no restarts\"";
+  meta += ", \"tree_rig\": \"every tree solver: motion cost " + bench::json_number(body::kTrunkMotionCost) +
+          " on the spine, neck and collars; a posture task (dls_no_posture: none), the rest pose with the upper arms "
+          "hanging " + bench::json_number(body::kNeutralArmDeg) + " deg out from straight down, stiffness 1 on trunk and "
+          "head, 0.1 on the arms, 0 elsewhere, posture_iterations 1 (bench/body_model.hpp)\"";
   meta += "}";
   const std::string json = "{\"meta\": " + meta + ",\n \"clips\": [\n  " + clips_json + "],\n \"records\": [\n  " +
                            records_json + "]}\n";

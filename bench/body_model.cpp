@@ -77,6 +77,45 @@ std::vector<int> path_below(const std::vector<int>& parent, int from, int to) {
 
 }  // namespace
 
+double motion_cost_of(JointClass c) {
+  return (c == JointClass::kSpine || c == JointClass::kNeck || c == JointClass::kCollar) ? kTrunkMotionCost : 1.0;
+}
+
+double posture_stiffness_of(JointClass c) {
+  switch (c) {
+    case JointClass::kSpine:
+    case JointClass::kNeck:
+    case JointClass::kHead:
+    case JointClass::kCollar: return 1.0;
+    case JointClass::kShoulder:
+    case JointClass::kElbow:
+    case JointClass::kWrist: return 0.1;
+    default: return 0.0;
+  }
+}
+
+void neutral_params(const Model& m, double* params) {
+  std::fill(params, params + m.dof_count(), 0.0);
+  const double away = kNeutralArmDeg * ikchain::so3::kPi / 180.0;
+  for (int j = 0; j < m.joint_count; ++j) {
+    if (m.joint_class[j] != JointClass::kShoulder) continue;
+    for (int c = 0; c < m.joint_count; ++c) {
+      if (m.parent[c] != j) continue;
+      // The upper arm's rest direction (the elbow's offset), turned down to hang kNeutralArmDeg
+      // out from straight down, on its own side.
+      const glm::dvec3 rest = glm::normalize(m.offset_m[c]);
+      if (std::hypot(rest.x, rest.z) < 0.5) break;  // the rest pose's arm already hangs: keep it
+      const glm::dvec3 side = glm::normalize(glm::dvec3(rest.x, 0.0, rest.z));
+      const glm::dvec3 hang = std::cos(away) * glm::dvec3(0.0, -1.0, 0.0) + std::sin(away) * side;
+      const glm::dvec3 axis = glm::cross(rest, hang);
+      const double angle = std::atan2(glm::length(axis), glm::dot(rest, hang));
+      const glm::dvec3 r = glm::normalize(axis) * angle;
+      for (int d = 0; d < 3; ++d) params[m.dof_offset(j) + d] = r[d];
+      break;
+    }
+  }
+}
+
 bool make_model(const bvh::Clip& clip, const std::string& name, double metres_per_unit, Model& m,
                 std::string& error) {
   m = Model{};

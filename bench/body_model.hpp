@@ -85,6 +85,24 @@ void forward_kinematics(const Model& m, const double* params, Pose& pose);
 glm::dvec3 effector_position(const Model& m, const Pose& pose, int e);
 glm::dquat effector_orientation(const Model& m, const Pose& pose, int e);
 
+// The rig the coupled tree solvers get (body_tree.cpp; docs/benchmarks.md "Body replay": the
+// rig), as a game developer would set up a full-body IK character, from the skeleton alone:
+// - a motion cost per joint class (ikchain::TreeJointDesc::motion_cost): the trunk (spine, neck,
+//   collars) kTrunkMotionCost, every other joint 1. The limbs serve the hands first; the trunk
+//   moves only as much as the goals need (a coupled solve otherwise bends the spine toward every
+//   hand: the minimum-norm step favours the joints with the longest levers).
+// - a posture task: neutral_params() at posture_stiffness_of() per class.
+constexpr double kTrunkMotionCost = 10.0;
+double motion_cost_of(JointClass c);
+// Per class, the share of the remaining way to the neutral pose one posture step closes: the
+// trunk and head 1 (they hold themselves upright), the arms 0.1 (drawn down gently), every other
+// joint 0. The legs have none: their ball knees would bend sideways toward a straighter leg.
+double posture_stiffness_of(JointClass c);
+// The neutral standing pose: the rest pose with each upper arm hanging kNeutralArmDeg out from
+// the body (from the skeleton's own rest directions; CMU's rest is a T-pose, arms along +-X).
+constexpr double kNeutralArmDeg = 10.0;
+void neutral_params(const Model& m, double* params);
+
 // Swing (of the twist axis) and twist of joint j's rotation vector, degrees (so3::swing_twist,
 // the decomposition the core's limits use).
 void swing_twist_deg(const Model& m, int joint, const double* params, double& swing, double& twist);

@@ -1,5 +1,6 @@
 // The coupled tree solvers in the body benchmark: the body as one ikchain::Tree (every BVH joint a
-// ball, the root floating), six 6-D effector goals in one solve_tree() call. Compiled with
+// ball, the root floating, the rig's motion costs and posture: body_model.hpp), six 6-D effector
+// goals in one solve_tree() call. Compiled with
 // IKCHAIN_BENCH_HAS_TREE only when the core has the tree solver (bench/SConscript checks for
 // src/core/tree.cpp); without it make_tree_solvers() returns no solver and body.json holds the
 // chain stack's rows alone.
@@ -39,23 +40,27 @@ double characteristic_length(const Model& m, int e) {
 
 class TreeBody : public BodySolver {
  public:
-  // rest_posture: the problem also holds a posture task, the skeleton's rest pose (every joint
-  // at params 0: the BVH's own T-pose, known without the recording) at full stiffness on every
-  // joint (the root's 6 params, which the hips goal fixes anyway, have no preference); the row is
-  // then named "<solver>_rest_posture".
+  // with_posture: the problem holds the rig's posture task (body_model.hpp: the neutral pose at
+  // each class's stiffness; the root's 6 params, which the hips goal fixes anyway, have none),
+  // given one step a solve (posture_iterations 1), as a tracking game character runs it (IKBody
+  // does the same): every frame's first step both follows the targets and pulls toward the
+  // posture, and a cold frame's posture step comes once its steps have arrived near the goals.
+  // Without it the row is named "<solver>_no_posture".
   TreeBody(const Model& m, std::shared_ptr<const ikchain::Tree> tree, ikchain::SolverKind kind,
-           const ikchain::SolverOptions& o, bool rest_posture = false)
+           const ikchain::SolverOptions& o, bool with_posture)
       : tree_holder_(std::move(tree)), tree_(*tree_holder_), kind_(kind), options_(o),
         ws_(tree_, 2 * kEffectorCount), params_(Eigen::VectorXd::Zero(tree_.dof_count())) {
     for (int e = 0; e < kEffectorCount; ++e) length_[e] = characteristic_length(m, e);
-    if (rest_posture) {
+    if (with_posture) {
       posture_.assign(tree_.dof_count(), 0.0);
-      posture_stiffness_.assign(tree_.dof_count(), 1.0);
-      for (int d = 0; d < 6; ++d) posture_stiffness_[d] = 0.0;
+      neutral_params(m, posture_.data());
+      posture_stiffness_.assign(tree_.dof_count(), 0.0);
+      for (int j = 1; j < m.joint_count; ++j)
+        for (int d = 0; d < 3; ++d) posture_stiffness_[m.dof_offset(j) + d] = posture_stiffness_of(m.joint_class[j]);
     }
   }
   std::string id() const override {
-    return std::string(ikchain::to_string(kind_)) + (posture_.empty() ? "" : "_rest_posture");
+    return std::string(ikchain::to_string(kind_)) + (posture_.empty() ? "_no_posture" : "");
   }
 
   void set_goals(const Targets& t) {
@@ -72,6 +77,7 @@ class TreeBody : public BodySolver {
     p.posture = ikchain::Span<const double>(posture_.data(), static_cast<int>(posture_.size()));
     p.posture_stiffness =
         ikchain::Span<const double>(posture_stiffness_.data(), static_cast<int>(posture_stiffness_.size()));
+    p.posture_iterations = 1;
     return p;
   }
 
@@ -121,6 +127,7 @@ std::vector<std::unique_ptr<BodySolver>> make_tree_solvers(const Model& m, const
     d.type = ikchain::JointType::kBall;
     d.offset_in_parent = m.offset_m[j];
     d.limits = m.limits[j];
+    d.motion_cost = motion_cost_of(m.joint_class[j]);
     b.add_joint(d);
   }
   for (int e = 0; e < kEffectorCount; ++e) {
@@ -164,16 +171,16 @@ std::vector<std::unique_ptr<BodySolver>> make_tree_solvers(const Model& m, const
   forward_kinematics(m, zero.data(), pose);
   const Targets rest = targets_at(m, pose);
   for (const ikchain::SolverInfo& info : ikchain::solver_table()) {
-    auto s = std::make_unique<TreeBody>(m, tree, info.kind, options);
+    auto s = std::make_unique<TreeBody>(m, tree, info.kind, options, /*with_posture=*/true);
     const ikchain::Message msg = s->validate(rest);
     if (!msg.empty()) {
       note += std::string(note.empty() ? "" : "; ") + info.id + ": " + msg.c_str();
       continue;
     }
     out.push_back(std::move(s));
-    // DLS again with the rest pose as its posture task (issue 14's redundancy resolution: MPJPE).
+    // DLS again without the posture: what the posture task does for the redundancy (MPJPE).
     if (info.kind == ikchain::SolverKind::kDLS)
-      out.push_back(std::make_unique<TreeBody>(m, tree, info.kind, options, /*rest_posture=*/true));
+      out.push_back(std::make_unique<TreeBody>(m, tree, info.kind, options, /*with_posture=*/false));
   }
   return out;
 }

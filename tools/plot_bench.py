@@ -25,7 +25,7 @@ COLORS = {
     "fabrik": "#ff7f0e",
     "jacobian_pinv": "#2ca02c",
     "dls": "#d62728",
-    "dls_rest_posture": "#e377c2",  # the body bench's DLS with the rest pose as posture task
+    "dls_no_posture": "#e377c2",  # the body bench's DLS without the rig's posture task
     "bfgs": "#9467bd",
     "kdl_lma": "#555555",
     "kdl_nr_jl": "#aaaaaa",

@@ -48,10 +48,11 @@ struct TreeProblem {
   // any common scale). A DOF no goal depends on takes its whole share every posture step.
   // A tracking caller, whose next frame starts from this one's pose and goes on toward the
   // posture, can give it this many steps instead: the posture rides on the solve's steps, and
-  // once this many of them have carried it from a pose near the goals (every level within 100
-  // tolerances) the steps serve the goals alone, and the solve stops when they are met. With 1, a
-  // tracking frame's first step both follows the targets and pulls toward the posture: often the
-  // whole frame. Ignored without a posture; the goals are met either way.
+  // once this many of them have carried it from or to a pose near the goals (every level within
+  // 100 tolerances) the steps serve the goals alone, and the solve stops when they are met. With
+  // 1, a tracking frame's first step both follows the targets and pulls toward the posture, and
+  // the next one polishes: often the whole frame. Ignored without a posture; the goals are met
+  // either way.
   int posture_iterations = 0;
 };
 

@@ -159,4 +159,42 @@ TEST(BodyModel, StatureInMetres) {
   EXPECT_NEAR(height(b), 1.6, 0.1);
 }
 
+// The rig's neutral pose (body_model.hpp): every joint at rest but the upper arms, which hang
+// kNeutralArmDeg out from straight down on their own side; inside every joint range.
+TEST(BodyModel, TheNeutralPoseHangsTheArmsInsideTheRanges) {
+  const struct {
+    const char* file;
+    double scale;
+  } clips[] = {{"01_01.bvh", kCmuMetresPerUnit}, {"Boxing_Toes.bvh", 0.01}};
+  for (const auto& spec : clips) {
+    bvh::Clip clip;
+    body::Model m;
+    if (!load(spec.file, spec.scale, clip, m)) GTEST_SKIP() << "assimp-testmodels not installed (scripts/setup)";
+    std::vector<double> params(m.dof_count(), 1.0);
+    body::neutral_params(m, params.data());
+    EXPECT_EQ(body::count_limit_violations(m, params.data(), 0.0), 0) << spec.file;
+    body::Pose rest, neutral;
+    std::vector<double> zero(m.dof_count(), 0.0);
+    body::forward_kinematics(m, zero.data(), rest);
+    body::forward_kinematics(m, params.data(), neutral);
+    int arms = 0;
+    for (int j = 0; j < m.joint_count; ++j) {
+      if (m.joint_class[j] != body::JointClass::kShoulder) {
+        for (int d = 0; d < 3; ++d) EXPECT_EQ(params[m.dof_offset(j) + d], 0.0) << spec.file << " " << m.joint_names[j];
+        continue;
+      }
+      for (int c = 0; c < m.joint_count; ++c) {
+        if (m.parent[c] != j || m.joint_class[c] != body::JointClass::kElbow) continue;
+        ++arms;
+        const glm::dvec3 upper_arm = glm::normalize(neutral.origins[c] - neutral.origins[j]);
+        const glm::dvec3 rest_arm = rest.origins[c] - rest.origins[j];
+        EXPECT_NEAR(glm::degrees(std::acos(-upper_arm.y)), body::kNeutralArmDeg, 1e-9) << spec.file << " " << m.joint_names[j];
+        EXPECT_GT(upper_arm.x * rest_arm.x, 0.0) << spec.file << " " << m.joint_names[j] << ": out on its own side";
+        EXPECT_NEAR(upper_arm.z, 0.0, 1e-9) << spec.file << " " << m.joint_names[j];
+      }
+    }
+    EXPECT_EQ(arms, 2) << spec.file;
+  }
+}
+
 }  // namespace

@@ -27,6 +27,7 @@ struct Replay {
   bool loaded = false;
   int successes = 0;
   double worst_mm = 0.0, worst_deg = 0.0;
+  double mpjpe_mm = 0.0;        // body_bench's: every joint's distance to the recording, mean over frames
   std::vector<int> iterations;  // per frame
 };
 
@@ -76,9 +77,13 @@ inline Replay replay_clip(const char* path, double metres_per_unit, const std::s
       frame_deg = std::max(frame_deg, glm::degrees(2.0 * std::acos(d)));
     }
     out.successes += frame_mm <= 1.0 && frame_deg <= 1.0;
+    double joints_mm = 0.0;
+    for (int j = 0; j < m.joint_count; ++j) joints_mm += 1e3 * glm::length(pose.origins[j] - recorded_pose.origins[j]);
+    out.mpjpe_mm += joints_mm / m.joint_count;
     out.worst_mm = std::max(out.worst_mm, frame_mm);
     out.worst_deg = std::max(out.worst_deg, frame_deg);
   }
+  if (!out.iterations.empty()) out.mpjpe_mm /= static_cast<double>(out.iterations.size());
   return out;
 }
 

@@ -1043,9 +1043,18 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
         best = current;
         best_posture = current_posture;
       }
+      // Down by a third; within the relaxed band of the goals no higher than the residual's rule
+      // for the first damping: joints a motion cost makes reluctant have short scaled columns,
+      // which a damping that only fell by thirds held back, so the polish converged linearly (a
+      // fifth of the error a step) instead of quadratically.
       mu = std::max(mu / 3.0, o.dls_min_damping);
+      if (within(current, relaxed)) mu = std::max(std::min(mu, kResidualDamping * 2.0 * current.cost), o.dls_min_damping);
       nu = 2.0;
-      if (near && step_posture_gain > 0.0) ++posture_steps;
+      // A step that carried the posture counts toward posture_iterations when it started near the
+      // goals or landed near them: a tracking frame's first step (targets centimetres away) both
+      // follows them and pulls toward the posture, and the next step polishes. A cold start's
+      // steps from far away count only once they arrive.
+      if ((near || within(current, relaxed)) && step_posture_gain > 0.0) ++posture_steps;
       // Settling, the posture's gain below 1e-3 of its cost ends it. The goals hold most of that
       // cost, so this stops with some way left that tracking frames creep (a still IKBody humanoid
       // 1.8 mm, then 0.8 mm a frame). A rule on the step's size went the whole way but changed the
@@ -1069,7 +1078,13 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       if (ws.deadline.spent()) break;  // before the next linearisation (issue 16, item 6)
       const bool kept_met = was_met && current.all_met() && step_posture_gain > 0.0;
       posture_chords = chorded && kept_met ? posture_chords + 1 : 0;
-      if (!model.cut() && (gain >= kChordGain || (kept_met && posture_chords < kMaxPostureChords))) {
+      // The capped posture's last step moved the pose along the posture's pull, off the goals'
+      // linearisation: the polish after it starts from a fresh J (a chord step from the old one
+      // converged linearly: one more iteration a frame).
+      const bool posture_just_spent =
+          posture_capped && step_posture_gain > 0.0 && posture_steps >= problem.posture_iterations;
+      if (!posture_just_spent && !model.cut() &&
+          (gain >= kChordGain || (kept_met && posture_chords < kMaxPostureChords))) {
         chord = true;  // the next iteration reuses J
       } else {
         tree_dof_axes(tree, params, ws, true);  // FK of params is what ws holds (the trial's)
