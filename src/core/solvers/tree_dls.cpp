@@ -74,6 +74,13 @@ constexpr int kMaxPostureChords = 3;
 // m for a translation) finds the posture settled: no shorter one is tried (a still body's tracking
 // frame spent three iterations on those).
 constexpr double kPostureSettledStep = 1e-3;
+// After the capped posture's last step (posture_iterations) a chord step contracts the goals'
+// error only to about a quarter or a fifth (the step moved the pose off the Jacobian): from within this
+// many tolerances one such step meets them, from farther a fresh linearisation is cheaper than the
+// several chord steps. The body bench's warm frames (0.01 mm tolerance) take 2 iterations, not 4;
+// IKBody's (0.1 mm), mostly within it, keep their chord polish (4: 9k fewer instructions a
+// character-frame, but a third iteration on half the bench's frames; a fresh J always: 40k more).
+constexpr double kChordPolishTolerances = 2.0;
 // The shortest share of the posture step tried once every goal is met (each refused step quarters it).
 constexpr double kMinPostureGain = 1.0 / 64.0;
 // The smallest squared pivot the Cholesky factors keep (both matrices have a positive ridge or
@@ -907,6 +914,7 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
   TreeErrors best = current;
   double best_posture = current_posture;
   const LevelCosts relaxed = met_costs(problem, o, kRelaxedTolerances);
+  const LevelCosts chord_polish = met_costs(problem, o, kChordPolishTolerances);
   const LevelCosts strict{};  // met is each goal within its tolerance (TreeErrors::level_met)
   // One level has nothing to relax for.
   const LevelCosts* met_cost = model.level_count() > 1 ? &relaxed : &strict;
@@ -1079,10 +1087,11 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       const bool kept_met = was_met && current.all_met() && step_posture_gain > 0.0;
       posture_chords = chorded && kept_met ? posture_chords + 1 : 0;
       // The capped posture's last step moved the pose along the posture's pull, off the goals'
-      // linearisation: the polish after it starts from a fresh J (a chord step from the old one
-      // converged linearly: one more iteration a frame).
+      // linearisation: a chord step from the old J contracts the error only linearly. Left farther
+      // than kChordPolishTolerances from the goals, the polish starts from a fresh J.
       const bool posture_just_spent =
-          posture_capped && step_posture_gain > 0.0 && posture_steps >= problem.posture_iterations;
+          posture_capped && step_posture_gain > 0.0 && posture_steps >= problem.posture_iterations &&
+          !within(current, chord_polish);
       if (!posture_just_spent && !model.cut() &&
           (gain >= kChordGain || (kept_met && posture_chords < kMaxPostureChords))) {
         chord = true;  // the next iteration reuses J
