@@ -1,12 +1,14 @@
 // The time limits of one solve, checked cheaply: SolverOptions::time_budget_usec, wall-clock time
 // (checked at every spent() call: before every iteration and inside the long inner loops), and the
-// safety cap SolverOptions::time_cap_usec, the solving thread's CPU time (checked at every 8th call,
-// so a short solve reads no clock for it). The cap is a net for runaway work: on the wall clock, a
-// thread the system set aside for 50 ms (a loaded machine) had its solve cut short, a visible pop
-// for work it never did (a Godot test's punching body, in CI). It counts from its first check, the
-// 8th call (a CPU-clock reading is a system call, ~175 ns, more than a short solve's whole cost);
-// with a budget no longer than the cap it is not armed at all (CPU time never runs ahead of the
-// wall clock). The solvers call spent(); nothing else reads the clocks.
+// safety cap SolverOptions::time_cap_usec, the solving thread's CPU time (checked at every 8th call
+// once armed). The cap is a net for runaway work: on the wall clock, a thread the system set aside
+// for 50 ms (a loaded machine) had its solve cut short, a visible pop for work it never did (a Godot
+// test's punching body, in CI). It counts from its first check, which arms it: the first 8th call
+// once the solve has charged kCapArmFlops of work or made kCapArmCalls calls. A CPU-clock reading
+// is a system call, ~175 ns: armed at the 8th call, it cost a 10-joint DLS solve (14 calls, 10k
+// flops) a tenth of its 2 us; a solve that short now reads no clock. With a budget no longer than
+// the cap it is not armed at all (CPU time never runs ahead of the wall clock). The solvers call
+// spent(); nothing else reads the clocks.
 //
 // Work per clock reading (issue 16, item 6): the bound "1.1 x budget + 20 us" holds only if no
 // stretch of work between two readings is long. Timing that is noisy, so the kernels that dominate
@@ -67,7 +69,7 @@ struct Deadline {
     calls = 0;
     hit = false;
     foreseen = false;
-    stretch = longest_stretch = exit_stretch = 0.0;
+    stretch = longest_stretch = exit_stretch = work = 0.0;
     last_reading_us = start_us;
     longest_gap_us = setup_gap_us = 0.0;
     budget_readings = 0;
@@ -78,7 +80,9 @@ struct Deadline {
   bool spent() {
     if (hit) return true;  // spent stays spent: no more clock readings
     if (!active) return false;
-    const bool cap_due = cap_us > 0.0 && (++calls & 7u) == 0u;  // the cap: every 8th call
+    // The cap: every 8th call, once armed or due to arm (see the top).
+    const bool cap_due = cap_us > 0.0 && (++calls & 7u) == 0u &&
+                         (cap_armed || calls >= kCapArmCalls || work >= kCapArmFlops);
     if (!every_call) {
       if (!cap_due) return false;
       close_stretch();
@@ -138,7 +142,10 @@ struct Deadline {
   bool spent_after_joints(int done) { return done > 0 && done % kJointsPerCheck == 0 && spent(); }
 
   // Work accounting (see the top): what a kernel adds, and the end of the solve's last stretch.
-  void charge(double flops) { stretch += flops; }
+  void charge(double flops) {
+    stretch += flops;
+    work += flops;
+  }
   void finish() {
     exit_stretch = stretch;
     close_stretch();
@@ -163,6 +170,10 @@ struct Deadline {
   // The set-up's prediction of the first stretch, in set-up gaps, where solve() gives no ratio (the
   // trees' first reading; the dispatcher's look before the solver's set-up).
   static constexpr double kFirstStretchRatio = 3.0;
+  // The cap arms at the first 8th call after this much charged work (~25-50 us) or this many
+  // calls (a loop that charges nothing): a 50 ms net lets a solve run that long unwatched.
+  static constexpr double kCapArmFlops = 100000.0;
+  static constexpr unsigned kCapArmCalls = 64;
 
   bool active = false;
   bool every_call = false;  // a budget is set: read the clock at every check
@@ -175,6 +186,7 @@ struct Deadline {
   unsigned calls = 0;
   double end_us = 0.0;  // the budget's end on the wall clock (or the fake clock's; 0: no budget)
   double stretch = 0.0;          // flops charged since the last clock reading
+  double work = 0.0;             // flops charged since start() (when the cap arms)
   double longest_stretch = 0.0;  // the most flops between two readings since start()
   double exit_stretch = 0.0;     // the flops after the last reading (the exit work), set by finish()
   bool foreseen = false;         // hit before end_us: the next stretch would have ended past bound_end_us

@@ -60,9 +60,10 @@ struct SolverOptions {
   // = 50 ms): a net, not a budget; set time_budget_usec for a frame's share. CPU time, not the wall
   // clock: a thread the system sets aside has its solve cut for work it never did (a pop on a loaded
   // machine). A solve the cap stops ends like a budget-bound one (budget_exhausted = true). Checked
-  // at every 8th budget check, counted from the first of those (a CPU-clock reading is a system
-  // call), so short solves read no clock for it; under a budget no longer than the cap it is not
-  // checked at all (docs/solvers.md, "Time budget").
+  // at every 8th budget check, counted from the first of those, which comes only once the solve has
+  // done ~25-50 us of work or 64 checks (a CPU-clock reading is a system call), so short solves read
+  // no clock for it; under a budget no longer than the cap it is not checked at all
+  // (docs/solvers.md, "Time budget").
   double time_cap_usec = kDefaultTimeCapUsec;
   // Restarts (off by default: a game wants frame-to-frame continuity, and a restart may jump to
   // another branch). When a solve ends without meeting its goals and they are not provably out of

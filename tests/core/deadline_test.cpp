@@ -36,6 +36,7 @@ TEST(Deadline, CapCountsTheThreadsCpuTimeNotTheWallClock) {
   Deadline d;
   d.start(0.0, 0.0, kCapUs);
   ASSERT_TRUE(d.active);
+  d.charge(Deadline::kCapArmFlops);  // work enough to arm it
   EXPECT_FALSE(spent_within(d, 8));  // the 8th call arms the cap
   ASSERT_TRUE(d.cap_armed);
   // Set aside (asleep) for ten times the cap, checking all along: the wall clock passes it, the
@@ -73,7 +74,8 @@ TEST(Deadline, CapIsArmedOnlyWhereItCanEndFirst) {
 }
 
 // On a fake clock (one clock for both, 1 us a reading) the cap alone reads it at every 8th call
-// only: armed at the 8th, spent at the first 8th-call reading `cap` after it.
+// only: armed at the 8th (once the solve has charged kCapArmFlops), spent at the first 8th-call
+// reading `cap` after it.
 double g_fake_us = 0.0;
 double fake_clock() { return g_fake_us += 1.0; }
 
@@ -82,6 +84,7 @@ TEST(Deadline, CapAloneReadsTheClockEveryEighthCall) {
   Deadline d;
   d.clock_us = fake_clock;
   d.start(0.0, 0.0, 3.0);
+  d.charge(Deadline::kCapArmFlops);
   int calls = 0;
   while (!d.spent()) ++calls;
   ++calls;
@@ -93,6 +96,7 @@ TEST(Deadline, CapAloneReadsTheClockEveryEighthCall) {
   // both clocks): the budget's end (start 0 + 100) is never reached, the cap ends the solve.
   g_fake_us = 0.0;
   d.start(100.0, 0.0, 3.0);
+  d.charge(Deadline::kCapArmFlops);
   calls = 0;
   while (!d.spent()) ++calls;
   ++calls;
@@ -100,6 +104,35 @@ TEST(Deadline, CapAloneReadsTheClockEveryEighthCall) {
   EXPECT_EQ(calls, 16);
   EXPECT_EQ(g_fake_us, 16.0);
   EXPECT_TRUE(d.cap_hit);
+}
+
+// A short solve reads no clock for the cap: it arms only once the solve has charged kCapArmFlops
+// of work, or at the first 8th call from kCapArmCalls on (a loop that charges nothing). A CPU-clock
+// reading is a system call (~175 ns): armed at the 8th call it cost the 10-joint DLS benchmark, 14
+// calls and 10k flops a solve, 0.2 of its 2.2 us.
+TEST(Deadline, AShortSolveReadsNoClockForTheCap) {
+  g_fake_us = 0.0;
+  Deadline d;
+  d.clock_us = fake_clock;
+  d.start(0.0, 0.0, 50000.0);
+  for (int i = 1; i < 8 * 4; ++i) {
+    d.charge(1000.0);  // 31k flops in all: short
+    EXPECT_FALSE(d.spent());
+  }
+  EXPECT_EQ(g_fake_us, 0.0) << "a short solve read the clock";
+  EXPECT_FALSE(d.cap_armed);
+  d.charge(Deadline::kCapArmFlops);  // now a long one: the next 8th call (the 32nd) arms the cap
+  EXPECT_FALSE(d.spent());
+  EXPECT_TRUE(d.cap_armed);
+  EXPECT_EQ(g_fake_us, 1.0);
+  // Without charges the 64th call arms it.
+  g_fake_us = 0.0;
+  d.start(0.0, 0.0, 50000.0);
+  EXPECT_FALSE(spent_within(d, static_cast<int>(Deadline::kCapArmCalls) - 1));
+  EXPECT_FALSE(d.cap_armed);
+  EXPECT_FALSE(d.spent());
+  EXPECT_TRUE(d.cap_armed);
+  EXPECT_EQ(g_fake_us, 1.0);
 }
 
 }  // namespace

@@ -14,6 +14,15 @@
 namespace ikchain {
 namespace test {
 
+// The chain `b` holds with its tip `link` along +Y of the last joint; a build error fails the test.
+inline Chain build_chain(ChainBuilder& b, double link) {
+  b.set_tip_offset(glm::dvec3(0, link, 0));
+  Chain c;
+  const Message m = b.build(c).message;
+  EXPECT_TRUE(m.empty()) << m.c_str();
+  return c;
+}
+
 // n hinges alternating about z and y, unit links along +Y: the benchmark chain (as measured with KDL).
 inline Chain make_hinge_chain(int n, double link = 1.0) {
   ChainBuilder b;
@@ -24,11 +33,7 @@ inline Chain make_hinge_chain(int n, double link = 1.0) {
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
     b.add_joint(j);
   }
-  b.set_tip_offset(glm::dvec3(0, link, 0));
-  Chain c;
-  const Message m = b.build(c).message;
-  EXPECT_TRUE(m.empty()) << m.c_str();
-  return c;
+  return build_chain(b, link);
 }
 
 // A hinge limited to [min, max] rad.
@@ -52,11 +57,7 @@ inline Chain make_planar_limb(const std::vector<JointLimits>& limits) {
     j.limits = limits[i];
     b.add_joint(j);
   }
-  b.set_tip_offset(glm::dvec3(0, 1, 0));
-  Chain c;
-  const Message m = b.build(c).message;
-  EXPECT_TRUE(m.empty()) << m.c_str();
-  return c;
+  return build_chain(b, 1.0);
 }
 
 // n hinges about z (a planar limb). With bend_max > 0 every hinge but the first bends one way only,
@@ -76,11 +77,7 @@ inline Chain make_ball_chain(int n, double link = 1.0) {
     j.offset_translation = i == 0 ? glm::dvec3(0.0) : glm::dvec3(0, link, 0);
     b.add_joint(j);
   }
-  b.set_tip_offset(glm::dvec3(0, link, 0));
-  Chain c;
-  const Message m = b.build(c).message;
-  EXPECT_TRUE(m.empty()) << m.c_str();
-  return c;
+  return build_chain(b, link);
 }
 
 // Random joint parameters: hinges in [-pi, pi], ball rotation vectors with angle <= max_angle.

@@ -451,7 +451,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           "non-finite result field", r.initial_error, r.final_error);
   REQUIRE(r.iterations >= 0, "negative iterations", r.iterations);
   // The budget (and the cap): no reading after the one that found it spent, and the flag says so.
-  // The cap is checked at every 8th check only, so with a budget a reading between two of its checks
+  // The cap is checked at every 8th check only (once armed), so with a budget a reading between two of its checks
   // may pass its end unnoticed; alone, all its readings are its checks.
   if (ws.deadline.hit && ws.deadline.cap_hit) {
     // (The reading before may be the arming one when the cap is below its ulp.)
