@@ -1,7 +1,8 @@
 # Fixtures of the IKBody tests (test_ik_body.gd, test_ik_body_features.gd): a humanoid Skeleton3D
 # built from Godot's SkeletonProfileHumanoid (names, parents, reference poses: what a retargeted
-# glTF/FBX humanoid has), an effector whose target is a sibling of the skeleton, target nodes,
-# the body's configuration warnings as one string and the angle between two rotations.
+# glTF/FBX humanoid has), bare or set up under an IKBody, an effector whose target is a sibling of
+# the skeleton, target nodes, the body's configuration warnings as one string and the angle between
+# two rotations.
 
 static func humanoid() -> Skeleton3D:
 	var profile := SkeletonProfileHumanoid.new()
@@ -16,6 +17,16 @@ static func humanoid() -> Skeleton3D:
 		skel.set_bone_rest(i, profile.get_reference_pose(i))
 	skel.reset_bone_poses()
 	return skel
+
+
+## humanoid() under `parent` (the case root) with an IKBody under it, set up by setup_humanoid().
+static func set_up_humanoid(parent: Node) -> IKBody:
+	var skel := humanoid()
+	parent.add_child(skel)
+	var body := IKBody.new()
+	skel.add_child(body)
+	body.setup_humanoid()
+	return body
 
 
 ## A target node named `name` at `t` under `parent` (the case root: a sibling of the skeleton).

@@ -71,12 +71,7 @@ func _feet_planted_body(skel: Skeleton3D, body: IKBody, others: Array) -> Dictio
 ## The poses at the next skeleton_updated (lib/body.gd capture()).
 ## A humanoid in the case's root with an IKBody under it, set up by setup_humanoid().
 func _set_up_humanoid() -> IKBody:
-	var skel := Body.humanoid()
-	case_root.add_child(skel)
-	var body := IKBody.new()
-	skel.add_child(body)
-	body.setup_humanoid()
-	return body
+	return Body.set_up_humanoid(case_root)
 
 
 func _capture(skel: Skeleton3D, body: IKBody, idle_ok := false) -> Dictionary:

@@ -500,11 +500,8 @@ func _ground(name: String, top_center: Vector3, size: Vector3, tilt := Basis()) 
 ## A humanoid with the set-up body (floating root, hips and feet at level 1) and an
 ## IKFootPlacement driven by hand (enabled off; the test calls place()).
 func _foot_rig() -> Dictionary:
-	var skel := Body.humanoid()
-	case_root.add_child(skel)
-	var body := IKBody.new()
-	skel.add_child(body)
-	body.setup_humanoid()
+	var body := Body.set_up_humanoid(case_root)
+	var skel := body.get_parent() as Skeleton3D
 	body.max_iterations = 300
 	# Only the feet and the hips: the hands and the head follow the animation.
 	var kept: Array[IKBodyEffector] = []
