@@ -13,8 +13,8 @@
 namespace ikchain {
 namespace {
 
-constexpr const char* kLadderClip = "/usr/share/assimp/models/BVH/01_03.bvh";
-constexpr double kCmuMetresPerUnit = (1.0 / 0.45) * 2.54 / 100.0;
+using test::kCmuMetresPerUnit;
+using test::kLadderClip;
 
 int median(std::vector<int> v) {
   std::sort(v.begin(), v.end());

@@ -111,7 +111,7 @@ TEST(TreeCcd, BendsStraightLegsInFewIterations) {
 // warm 185 of 300, cold 0.
 TEST(TreeCcd, WarmReplayIsNotWorseThanCold) {
   const char* clip = "/usr/share/assimp/models/BVH/01_01.bvh";
-  const double cmu_metres_per_unit = (1.0 / 0.45) * 2.54 / 100.0;
+  const double cmu_metres_per_unit = test::kCmuMetresPerUnit;
   const test::Replay warm = test::replay_clip(clip, cmu_metres_per_unit, "ccd", true, 300);
   if (!warm.loaded) GTEST_SKIP() << clip << " missing: scripts/setup installs assimp-testmodels";
   const test::Replay cold = test::replay_clip(clip, cmu_metres_per_unit, "ccd", false, 300);

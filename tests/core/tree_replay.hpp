@@ -22,6 +22,9 @@ namespace ikchain {
 namespace test {
 
 constexpr const char* kBoxingClip = "/usr/share/assimp/models/BVH/Boxing_Toes.bvh";  // in centimetres
+// CMU subject 01's clips: ASF lengths in inches at the header's scale 0.45 (docs/benchmarks.md, "Units").
+constexpr const char* kLadderClip = "/usr/share/assimp/models/BVH/01_03.bvh";
+constexpr double kCmuMetresPerUnit = (1.0 / 0.45) * 2.54 / 100.0;
 
 struct Replay {
   bool loaded = false;

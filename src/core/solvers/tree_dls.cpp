@@ -1055,14 +1055,15 @@ TreeSolverStatus solve_tree_dls(const Tree& tree, const TreeProblem& problem, co
       // for the first damping: joints a motion cost makes reluctant have short scaled columns,
       // which a damping that only fell by thirds held back, so the polish converged linearly (a
       // fifth of the error a step) instead of quadratically.
+      const bool landed_near = within(current, relaxed);
       mu = std::max(mu / 3.0, o.dls_min_damping);
-      if (within(current, relaxed)) mu = std::max(std::min(mu, kResidualDamping * 2.0 * current.cost), o.dls_min_damping);
+      if (landed_near) mu = std::max(std::min(mu, kResidualDamping * 2.0 * current.cost), o.dls_min_damping);
       nu = 2.0;
       // A step that carried the posture counts toward posture_iterations when it started near the
       // goals or landed near them: a tracking frame's first step (targets centimetres away) both
       // follows them and pulls toward the posture, and the next step polishes. A cold start's
       // steps from far away count only once they arrive.
-      if ((near || within(current, relaxed)) && step_posture_gain > 0.0) ++posture_steps;
+      if ((near || landed_near) && step_posture_gain > 0.0) ++posture_steps;
       // Settling, the posture's gain below 1e-3 of its cost ends it. The goals hold most of that
       // cost, so this stops with some way left that tracking frames creep (a still IKBody humanoid
       // 1.8 mm, then 0.8 mm a frame). A rule on the step's size went the whole way but changed the
